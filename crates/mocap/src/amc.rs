@@ -1,0 +1,336 @@
+//! The AMC (Acclaim Motion Capture) parser and writer.
+
+use std::fmt::Write as _;
+
+use crate::error::{Error, ParseError, ParseErrorKind as K, Result};
+use crate::lex::{self, Ctx};
+use crate::{Channel, Motion, Skeleton};
+
+/// Parses AMC text against a skeleton. `file` names the source in errors;
+/// `sample_rate_hz` is the capture rate (CMU: 120), which AMC does not store.
+///
+/// Every bone that carries DOFs must appear exactly once per frame, with one
+/// value per DOF; frames must be numbered consecutively. `:RADIANS` files are
+/// converted to degrees. Channel order follows the bone lines of the first frame.
+pub fn parse_amc(
+    file: &str,
+    bytes: &[u8],
+    skeleton: &Skeleton,
+    sample_rate_hz: f64,
+) -> Result<Motion> {
+    let text = lex::text(file, bytes)?;
+    let cx = Ctx { file };
+    let last_line = text.split('\n').count();
+    let mut lines = lex::lines(text).peekable();
+    if lines.peek().is_none() {
+        return Err(cx
+            .err(
+                1,
+                0,
+                K::Empty {
+                    expected: "AMC frames",
+                },
+            )
+            .into());
+    }
+    let mut radians = false;
+    // Header keywords.
+    while let Some(l) = lines.peek() {
+        let t = l.toks[0];
+        if !t.text.starts_with(':') {
+            break;
+        }
+        match t.text.to_ascii_uppercase().as_str() {
+            ":FULLY-SPECIFIED" => {}
+            ":DEGREES" => radians = false,
+            ":RADIANS" => radians = true,
+            _ => {
+                return Err(cx
+                    .err(
+                        l.number,
+                        t.column,
+                        K::Unexpected {
+                            expected: "':FULLY-SPECIFIED', ':DEGREES' or ':RADIANS'".into(),
+                            found: t.text.into(),
+                        },
+                    )
+                    .into());
+            }
+        }
+        lines.next();
+    }
+    let n_bones_with_dofs = skeleton.bones.iter().filter(|b| !b.dofs.is_empty()).count() + 1;
+    // Column layout, fixed by the first frame: (bone name, first column).
+    let mut layout: Vec<(String, usize)> = Vec::new();
+    let mut channels: Vec<Channel> = Vec::new();
+    let mut values: Vec<f64> = Vec::new();
+    let mut frame_no: Option<usize> = None;
+    let mut first_frame_no = 0;
+    let mut row: Vec<f64> = Vec::new();
+    let mut seen: Vec<bool> = Vec::new();
+    let mut frame_line = 0;
+
+    let finish_frame = |frame: usize,
+                        line: usize,
+                        layout: &mut Vec<(String, usize)>,
+                        channels: &[Channel],
+                        row: &mut Vec<f64>,
+                        seen: &mut Vec<bool>,
+                        values: &mut Vec<f64>|
+     -> std::result::Result<(), ParseError> {
+        let missing: Vec<String> = layout
+            .iter()
+            .zip(seen.iter())
+            .filter(|(_, s)| !**s)
+            .map(|((b, _), _)| b.clone())
+            .collect();
+        if !missing.is_empty() || layout.len() < n_bones_with_dofs {
+            let mut bones = missing;
+            let have: Vec<&str> = layout.iter().map(|(b, _)| b.as_str()).collect();
+            if !have.contains(&"root") {
+                bones.push("root".into());
+            }
+            bones.extend(
+                skeleton
+                    .bones
+                    .iter()
+                    .filter(|b| !b.dofs.is_empty() && !have.contains(&b.name.as_str()))
+                    .map(|b| b.name.clone()),
+            );
+            return Err(ParseError {
+                file: file.into(),
+                line,
+                column: 0,
+                kind: K::MissingInFrame { frame, bones },
+            });
+        }
+        debug_assert_eq!(row.len(), channels.len());
+        values.extend_from_slice(row);
+        seen.iter_mut().for_each(|s| *s = false);
+        Ok(())
+    };
+
+    for l in lines {
+        let first = l.toks[0];
+        if first.text.bytes().all(|b| b.is_ascii_digit()) {
+            // A frame number line.
+            if l.toks.len() != 1 {
+                return Err(cx
+                    .err(
+                        l.number,
+                        l.toks[1].column,
+                        K::Unexpected {
+                            expected: "a frame number alone on its line".into(),
+                            found: l.toks[1].text.into(),
+                        },
+                    )
+                    .into());
+            }
+            let n: usize = first.text.parse().map_err(|_| {
+                cx.err(
+                    l.number,
+                    first.column,
+                    K::BadNumber {
+                        token: first.text.into(),
+                        expected: "a frame number",
+                    },
+                )
+            })?;
+            match frame_no {
+                None => first_frame_no = n,
+                Some(prev) => {
+                    finish_frame(
+                        prev,
+                        frame_line,
+                        &mut layout,
+                        &channels,
+                        &mut row,
+                        &mut seen,
+                        &mut values,
+                    )?;
+                    if n != prev + 1 {
+                        return Err(cx
+                            .err(
+                                l.number,
+                                first.column,
+                                K::FrameNumber {
+                                    expected: prev + 1,
+                                    found: n,
+                                },
+                            )
+                            .into());
+                    }
+                }
+            }
+            frame_no = Some(n);
+            frame_line = l.number;
+            continue;
+        }
+        let Some(frame) = frame_no else {
+            return Err(cx
+                .err(
+                    l.number,
+                    first.column,
+                    K::Unexpected {
+                        expected: "a frame number".into(),
+                        found: first.text.into(),
+                    },
+                )
+                .into());
+        };
+        let name = first.text;
+        let dofs = skeleton
+            .dofs_of(name)
+            .ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
+        if dofs.is_empty() {
+            return Err(cx
+                .err(l.number, first.column, K::NoDofBone(name.into()))
+                .into());
+        }
+        let vals = &l.toks[1..];
+        if vals.len() != dofs.len() {
+            return Err(cx
+                .err(
+                    l.number,
+                    first.column,
+                    K::WrongValueCount {
+                        bone: name.into(),
+                        found: vals.len(),
+                        declared: dofs.to_vec(),
+                    },
+                )
+                .into());
+        }
+        let slot = match layout.iter().position(|(b, _)| b == name) {
+            Some(s) => s,
+            None if frame == first_frame_no => {
+                layout.push((name.to_owned(), channels.len()));
+                channels.extend(dofs.iter().map(|&dof| Channel {
+                    bone: name.to_owned(),
+                    dof,
+                }));
+                row.resize(channels.len(), 0.0);
+                seen.push(false);
+                layout.len() - 1
+            }
+            None => {
+                // A bone that the first frame did not have: the first frame was incomplete.
+                return Err(cx
+                    .err(
+                        frame_line,
+                        0,
+                        K::Unexpected {
+                            expected: format!(
+                                "bone '{name}' in the first frame as in frame {frame}"
+                            ),
+                            found: "nothing".into(),
+                        },
+                    )
+                    .into());
+            }
+        };
+        if seen[slot] {
+            return Err(cx
+                .err(
+                    l.number,
+                    first.column,
+                    K::DuplicateInFrame {
+                        bone: name.into(),
+                        frame,
+                    },
+                )
+                .into());
+        }
+        seen[slot] = true;
+        let col = layout[slot].1;
+        for (k, t) in vals.iter().enumerate() {
+            let mut v = cx.num(l.number, *t, "a channel value")?;
+            if radians && dofs[k].is_rotation() {
+                v = v.to_degrees();
+            }
+            row[col + k] = v;
+        }
+    }
+    let Some(last) = frame_no else {
+        return Err(cx.err(last_line, 0, K::NoFrames).into());
+    };
+    finish_frame(
+        last,
+        frame_line,
+        &mut layout,
+        &channels,
+        &mut row,
+        &mut seen,
+        &mut values,
+    )?;
+    Motion::new(channels, values, sample_rate_hz).map_err(|e| match e {
+        Error::InvalidArgument(m) => Error::InvalidArgument(format!("{file}: {m}")),
+        other => other,
+    })
+}
+
+/// Writes a motion as AMC text (`:FULLY-SPECIFIED`, `:DEGREES`), frames numbered from 1.
+///
+/// Bones appear in the order of their first channel in the motion; every bone
+/// with DOFs in the skeleton is written, and channels the motion does not
+/// have are written as 0 (the zero pose). Values use the shortest text that
+/// reads back to the same `f64`, so `parse_amc(write_amc(m)) == m` for a full motion.
+pub fn write_amc(skeleton: &Skeleton, motion: &Motion) -> Result<String> {
+    let mut bones: Vec<&str> = Vec::new();
+    for c in motion.channels() {
+        let Some(dofs) = skeleton.dofs_of(&c.bone) else {
+            return Err(Error::SkeletonMismatch {
+                skeleton: skeleton.name.clone(),
+                detail: format!("no bone '{}'", c.bone),
+            });
+        };
+        if !dofs.contains(&c.dof) {
+            return Err(Error::SkeletonMismatch {
+                skeleton: skeleton.name.clone(),
+                detail: format!("bone '{}' has no dof {}", c.bone, c.dof.as_str()),
+            });
+        }
+        if !bones.contains(&c.bone.as_str()) {
+            bones.push(&c.bone);
+        }
+    }
+    if !bones.contains(&"root") {
+        bones.insert(0, "root");
+    }
+    for b in &skeleton.bones {
+        if !b.dofs.is_empty() && !bones.contains(&b.name.as_str()) {
+            bones.push(&b.name);
+        }
+    }
+    // Column of each (bone, dof) in the motion, or None.
+    let plan: Vec<(&str, Vec<Option<usize>>)> = bones
+        .iter()
+        .map(|&b| {
+            let dofs = skeleton.dofs_of(b).unwrap_or(&[]);
+            let cols = dofs
+                .iter()
+                .map(|&d| {
+                    motion
+                        .channels()
+                        .iter()
+                        .position(|c| c.bone == b && c.dof == d)
+                })
+                .collect();
+            (b, cols)
+        })
+        .collect();
+    let mut out = String::new();
+    out.push_str("#!OML:ASF written by cpg-mocap\n:FULLY-SPECIFIED\n:DEGREES\n");
+    for f in 0..motion.n_frames() {
+        let row = motion.frame(f);
+        let _ = writeln!(out, "{}", f + 1);
+        for (b, cols) in &plan {
+            out.push_str(b);
+            for c in cols {
+                let _ = write!(out, " {}", c.map_or(0.0, |k| row[k]));
+            }
+            out.push('\n');
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,564 @@
+//! The ASF (Acclaim Skeleton File) parser.
+
+use crate::error::{ParseError, ParseErrorKind as K};
+use crate::lex::{self, Ctx, Line};
+use crate::{AngleUnit, AxisOrder, Bone, Dof, Root, Skeleton, Units};
+
+/// Parses ASF text. `file` names the source in error messages.
+pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
+    let text = lex::text(file, bytes)?;
+    let cx = Ctx { file };
+    let lines: Vec<Line<'_>> = lex::lines(text).collect();
+    if lines.is_empty() {
+        return Err(cx.err(
+            1,
+            0,
+            K::Empty {
+                expected: "an ASF skeleton",
+            },
+        ));
+    }
+    let last_line = text.split('\n').count();
+    let mut sk = Skeleton {
+        name: String::new(),
+        version: String::new(),
+        units: Units {
+            mass: 1.0,
+            length: 1.0,
+            angle: AngleUnit::Deg,
+        },
+        documentation: String::new(),
+        root: Root {
+            order: Vec::new(),
+            axis: AxisOrder::XYZ,
+            position: [0.0; 3],
+            orientation_deg: [0.0; 3],
+        },
+        bones: Vec::new(),
+    };
+    let mut seen_root = false;
+    let mut seen_bones = false;
+    let mut seen_hier = false;
+    let mut parents: Vec<Option<Option<usize>>> = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let l = &lines[i];
+        let kw = l.toks[0];
+        if !kw.text.starts_with(':') {
+            return Err(cx.err(
+                l.number,
+                kw.column,
+                K::Unexpected {
+                    expected: "a section keyword such as ':bonedata'".into(),
+                    found: kw.text.into(),
+                },
+            ));
+        }
+        i += 1;
+        match kw.text {
+            ":version" => sk.version = rest_of(l),
+            ":name" => sk.name = rest_of(l),
+            ":units" => {
+                while i < lines.len() && !is_section(&lines[i]) {
+                    let u = &lines[i];
+                    i += 1;
+                    let key = u.toks[0];
+                    let val = u.toks.get(1).ok_or_else(|| {
+                        cx.err(
+                            u.number,
+                            0,
+                            K::Arity {
+                                keyword: key.text.into(),
+                                expected: 1,
+                                found: 0,
+                            },
+                        )
+                    })?;
+                    match key.text {
+                        "mass" => {
+                            sk.units.mass = positive(&cx, u.number, *val, "a positive mass unit")?
+                        }
+                        "length" => {
+                            sk.units.length =
+                                positive(&cx, u.number, *val, "a positive length unit")?
+                        }
+                        "angle" => {
+                            sk.units.angle = match val.text.to_ascii_lowercase().as_str() {
+                                "deg" | "degrees" => AngleUnit::Deg,
+                                "rad" | "radians" => AngleUnit::Rad,
+                                _ => {
+                                    return Err(cx.err(
+                                        u.number,
+                                        val.column,
+                                        K::Unexpected {
+                                            expected: "'deg' or 'rad'".into(),
+                                            found: val.text.into(),
+                                        },
+                                    ));
+                                }
+                            }
+                        }
+                        other => {
+                            return Err(cx.err(
+                                u.number,
+                                key.column,
+                                K::Unexpected {
+                                    expected: "'mass', 'length' or 'angle'".into(),
+                                    found: other.into(),
+                                },
+                            ));
+                        }
+                    }
+                }
+            }
+            ":documentation" => {
+                let mut doc = Vec::new();
+                while i < lines.len() && !is_section(&lines[i]) {
+                    doc.push(lines[i].text.trim());
+                    i += 1;
+                }
+                sk.documentation = doc.join("\n");
+            }
+            ":root" => {
+                seen_root = true;
+                while i < lines.len() && !is_section(&lines[i]) {
+                    let r = &lines[i];
+                    i += 1;
+                    match r.toks[0].text {
+                        "order" => {
+                            let mut order = Vec::new();
+                            for t in &r.toks[1..] {
+                                order.push(Dof::parse(t.text).ok_or_else(|| {
+                                    cx.err(r.number, t.column, K::UnknownDof(t.text.into()))
+                                })?);
+                            }
+                            check_unique_dofs(&cx, r, &order)?;
+                            sk.root.order = order;
+                        }
+                        "axis" => sk.root.axis = axis_order(&cx, r, 1)?,
+                        "position" => {
+                            sk.root.position = cx.nums::<3>(r, "a root position coordinate")?
+                        }
+                        "orientation" => {
+                            sk.root.orientation_deg =
+                                cx.nums::<3>(r, "a root orientation angle")?;
+                        }
+                        other => {
+                            return Err(cx.err(
+                                r.number,
+                                r.toks[0].column,
+                                K::Unexpected {
+                                    expected: "'order', 'axis', 'position' or 'orientation'".into(),
+                                    found: other.into(),
+                                },
+                            ));
+                        }
+                    }
+                }
+            }
+            ":bonedata" => {
+                seen_bones = true;
+                while i < lines.len() && !is_section(&lines[i]) {
+                    let b = &lines[i];
+                    if b.toks[0].text != "begin" {
+                        return Err(cx.err(
+                            b.number,
+                            b.toks[0].column,
+                            K::Unexpected {
+                                expected: "'begin'".into(),
+                                found: b.toks[0].text.into(),
+                            },
+                        ));
+                    }
+                    i += 1;
+                    let bone = parse_bone(&cx, &lines, &mut i, b.number, last_line)?;
+                    if bone.name == "root" || sk.bones.iter().any(|o| o.name == bone.name) {
+                        return Err(cx.err(b.number, 0, K::DuplicateBone(bone.name)));
+                    }
+                    sk.bones.push(bone);
+                }
+                parents = vec![None; sk.bones.len()];
+            }
+            ":hierarchy" => {
+                seen_hier = true;
+                if !seen_bones {
+                    return Err(cx.err(
+                        l.number,
+                        0,
+                        K::MissingSection(":bonedata (before :hierarchy)"),
+                    ));
+                }
+                parse_hierarchy(&cx, &lines, &mut i, &sk, &mut parents, last_line)?;
+            }
+            other => {
+                return Err(cx.err(
+                    l.number,
+                    kw.column,
+                    K::Unexpected {
+                        expected:
+                            "one of :version :name :units :documentation :root :bonedata :hierarchy"
+                                .into(),
+                        found: other.into(),
+                    },
+                ));
+            }
+        }
+    }
+    if !seen_root {
+        return Err(cx.err(last_line, 0, K::MissingSection(":root")));
+    }
+    if !seen_bones {
+        return Err(cx.err(last_line, 0, K::MissingSection(":bonedata")));
+    }
+    if !seen_hier {
+        return Err(cx.err(last_line, 0, K::MissingSection(":hierarchy")));
+    }
+    if let Some(orphan) = sk.bones.iter().zip(&parents).find(|(_, p)| p.is_none()) {
+        return Err(cx.err(
+            last_line,
+            0,
+            K::Hierarchy(format!("bone '{}' has no parent", orphan.0.name)),
+        ));
+    }
+    for (b, p) in sk.bones.iter_mut().zip(parents) {
+        b.parent = p.flatten();
+    }
+    sk.finish()
+        .map_err(|msg| cx.err(last_line, 0, K::Hierarchy(msg)))?;
+    Ok(sk)
+}
+
+fn is_section(l: &Line<'_>) -> bool {
+    l.toks[0].text.starts_with(':')
+}
+
+fn rest_of(l: &Line<'_>) -> String {
+    l.toks[1..]
+        .iter()
+        .map(|t| t.text)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn positive(
+    cx: &Ctx<'_>,
+    line: usize,
+    t: lex::Tok<'_>,
+    what: &'static str,
+) -> Result<f64, ParseError> {
+    let v = cx.num(line, t, what)?;
+    if v <= 0.0 {
+        return Err(cx.err(
+            line,
+            t.column,
+            K::Unexpected {
+                expected: what.into(),
+                found: t.text.into(),
+            },
+        ));
+    }
+    Ok(v)
+}
+
+fn axis_order(cx: &Ctx<'_>, l: &Line<'_>, idx: usize) -> Result<AxisOrder, ParseError> {
+    let t = l.toks.get(idx).ok_or_else(|| {
+        cx.err(
+            l.number,
+            0,
+            K::UnexpectedEof {
+                expected: "an axis order such as XYZ".into(),
+            },
+        )
+    })?;
+    AxisOrder::parse(t.text)
+        .ok_or_else(|| cx.err(l.number, t.column, K::UnknownAxisOrder(t.text.into())))
+}
+
+fn check_unique_dofs(cx: &Ctx<'_>, l: &Line<'_>, dofs: &[Dof]) -> Result<(), ParseError> {
+    for (k, d) in dofs.iter().enumerate() {
+        if dofs[..k].contains(d) {
+            return Err(cx.err(
+                l.number,
+                l.toks[k + 1].column,
+                K::Unexpected {
+                    expected: "each degree of freedom once".into(),
+                    found: d.as_str().into(),
+                },
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn parse_bone(
+    cx: &Ctx<'_>,
+    lines: &[Line<'_>],
+    i: &mut usize,
+    begin_line: usize,
+    last_line: usize,
+) -> Result<Bone, ParseError> {
+    let mut id = None;
+    let mut name: Option<String> = None;
+    let mut direction = None;
+    let mut length = None;
+    let mut axis = None;
+    let mut dofs = Vec::new();
+    let mut limits: Vec<(f64, f64)> = Vec::new();
+    let mut dof_line = begin_line;
+    loop {
+        let Some(l) = lines.get(*i) else {
+            return Err(cx.err(
+                last_line,
+                0,
+                K::UnexpectedEof {
+                    expected: "'end' closing the bone block".into(),
+                },
+            ));
+        };
+        *i += 1;
+        let kw = l.toks[0];
+        match kw.text {
+            "end" => break,
+            "id" => {
+                let t = l.toks.get(1).ok_or_else(|| {
+                    cx.err(
+                        l.number,
+                        0,
+                        K::Arity {
+                            keyword: "id".into(),
+                            expected: 1,
+                            found: 0,
+                        },
+                    )
+                })?;
+                id = Some(t.text.parse::<u32>().map_err(|_| {
+                    cx.err(
+                        l.number,
+                        t.column,
+                        K::BadNumber {
+                            token: t.text.into(),
+                            expected: "a bone id",
+                        },
+                    )
+                })?);
+            }
+            "name" => {
+                let t = l.toks.get(1).ok_or_else(|| {
+                    cx.err(
+                        l.number,
+                        0,
+                        K::Arity {
+                            keyword: "name".into(),
+                            expected: 1,
+                            found: 0,
+                        },
+                    )
+                })?;
+                name = Some(t.text.to_owned());
+            }
+            "direction" => direction = Some(cx.nums::<3>(l, "a direction component")?),
+            "length" => {
+                let [v] = cx.nums::<1>(l, "a bone length")?;
+                if v < 0.0 {
+                    return Err(cx.err(
+                        l.number,
+                        l.toks[1].column,
+                        K::Unexpected {
+                            expected: "a length >= 0".into(),
+                            found: l.toks[1].text.into(),
+                        },
+                    ));
+                }
+                length = Some(v);
+            }
+            "axis" => {
+                if l.toks.len() != 5 {
+                    return Err(cx.err(
+                        l.number,
+                        0,
+                        K::Arity {
+                            keyword: "axis".into(),
+                            expected: 4,
+                            found: l.toks.len() - 1,
+                        },
+                    ));
+                }
+                let mut a = [0.0; 3];
+                for k in 0..3 {
+                    a[k] = cx.num(l.number, l.toks[k + 1], "an axis angle")?;
+                }
+                axis = Some((a, axis_order(cx, l, 4)?));
+            }
+            "dof" => {
+                dof_line = l.number;
+                dofs.clear();
+                for t in &l.toks[1..] {
+                    dofs.push(
+                        Dof::parse(t.text).ok_or_else(|| {
+                            cx.err(l.number, t.column, K::UnknownDof(t.text.into()))
+                        })?,
+                    );
+                }
+                check_unique_dofs(cx, l, &dofs)?;
+            }
+            "limits" => {
+                let mut vals: Vec<f64> = Vec::new();
+                for t in &l.toks[1..] {
+                    vals.push(cx.num_or_inf(l.number, *t, "a limit", true)?);
+                }
+                // Continuation lines are the ones that start with '(' .
+                while let Some(c) = lines.get(*i) {
+                    if !c.text.trim_start().starts_with('(') {
+                        break;
+                    }
+                    *i += 1;
+                    for t in &c.toks {
+                        vals.push(cx.num_or_inf(c.number, *t, "a limit", true)?);
+                    }
+                }
+                if vals.len() % 2 != 0 {
+                    return Err(cx.err(
+                        l.number,
+                        0,
+                        K::Unexpected {
+                            expected: "limits as (min max) pairs".into(),
+                            found: format!("{} numbers", vals.len()),
+                        },
+                    ));
+                }
+                limits = vals.chunks_exact(2).map(|p| (p[0], p[1])).collect();
+                if let Some(bad) = limits.iter().find(|(lo, hi)| lo > hi) {
+                    return Err(cx.err(
+                        l.number,
+                        0,
+                        K::Unexpected {
+                            expected: "limits with min <= max".into(),
+                            found: format!("({} {})", bad.0, bad.1),
+                        },
+                    ));
+                }
+            }
+            "bodymass" | "cofmass" => {}
+            other => {
+                return Err(cx.err(
+                    l.number,
+                    kw.column,
+                    K::Unexpected {
+                        expected: "one of id name direction length axis dof limits end".into(),
+                        found: other.into(),
+                    },
+                ));
+            }
+        }
+    }
+    let name = name.ok_or_else(|| {
+        cx.err(
+            begin_line,
+            0,
+            K::MissingField {
+                bone: format!("(block at line {begin_line})"),
+                field: "name",
+            },
+        )
+    })?;
+    let missing = |field| {
+        cx.err(
+            begin_line,
+            0,
+            K::MissingField {
+                bone: name.clone(),
+                field,
+            },
+        )
+    };
+    let direction = direction.ok_or_else(|| missing("direction"))?;
+    let length = length.ok_or_else(|| missing("length"))?;
+    let (axis_deg, axis_order) = axis.ok_or_else(|| missing("axis"))?;
+    if !limits.is_empty() && limits.len() != dofs.len() {
+        return Err(cx.err(
+            dof_line,
+            0,
+            K::LimitsCount {
+                bone: name,
+                expected: dofs.len(),
+                found: limits.len(),
+            },
+        ));
+    }
+    Ok(Bone {
+        id: id.unwrap_or(0),
+        name,
+        direction,
+        length,
+        axis_deg,
+        axis_order,
+        dofs,
+        limits,
+        parent: None,
+    })
+}
+
+fn parse_hierarchy(
+    cx: &Ctx<'_>,
+    lines: &[Line<'_>],
+    i: &mut usize,
+    sk: &Skeleton,
+    parents: &mut [Option<Option<usize>>],
+    last_line: usize,
+) -> Result<(), ParseError> {
+    let Some(b) = lines.get(*i) else {
+        return Err(cx.err(
+            last_line,
+            0,
+            K::UnexpectedEof {
+                expected: "'begin' of the hierarchy".into(),
+            },
+        ));
+    };
+    if b.toks[0].text != "begin" {
+        return Err(cx.err(
+            b.number,
+            b.toks[0].column,
+            K::Unexpected {
+                expected: "'begin'".into(),
+                found: b.toks[0].text.into(),
+            },
+        ));
+    }
+    *i += 1;
+    loop {
+        let Some(l) = lines.get(*i) else {
+            return Err(cx.err(
+                last_line,
+                0,
+                K::UnexpectedEof {
+                    expected: "'end' closing the hierarchy".into(),
+                },
+            ));
+        };
+        *i += 1;
+        if l.toks[0].text == "end" {
+            return Ok(());
+        }
+        let parent = match l.toks[0].text {
+            "root" => None,
+            n => Some(
+                sk.bone_index(n)
+                    .ok_or_else(|| cx.err(l.number, l.toks[0].column, K::UnknownBone(n.into())))?,
+            ),
+        };
+        for t in &l.toks[1..] {
+            let c = sk
+                .bone_index(t.text)
+                .ok_or_else(|| cx.err(l.number, t.column, K::UnknownBone(t.text.into())))?;
+            if parents[c].is_some() {
+                return Err(cx.err(
+                    l.number,
+                    t.column,
+                    K::Hierarchy(format!("bone '{}' has two parents", t.text)),
+                ));
+            }
+            parents[c] = Some(parent);
+        }
+    }
+}

@@ -1,0 +1,202 @@
+//! Forward kinematics with the Acclaim convention.
+//!
+//! A bone's rotation relative to its parent is `C · M · C⁻¹`, where `C` is the
+//! bone's `axis` frame (for order XYZ, `C = Rz(az)·Ry(ay)·Rx(ax)`) and `M` is
+//! the product of the frame's DOF rotations, the first listed DOF applied first
+//! (for `dof rx ry rz`, `M = Rz·Ry·Rx`). The world rotation of a bone is its
+//! parent's world rotation times that. The bone's end point is its start point
+//! (the parent's end, or the root position) plus the world rotation applied to
+//! `direction · length` (direction normalised to unit length). The root translation is `position + (tx, ty, tz)`.
+
+use crate::error::{Error, Result};
+use crate::{AxisOrder, Dof, Motion, Skeleton};
+
+type M3 = [[f64; 3]; 3];
+
+const I3: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+fn rot(axis: usize, deg: f64) -> M3 {
+    let (s, c) = deg.to_radians().sin_cos();
+    match axis {
+        0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
+        1 => [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]],
+        _ => [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+    }
+}
+
+fn mul(a: &M3, b: &M3) -> M3 {
+    let mut r = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            r[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
+        }
+    }
+    r
+}
+
+fn transpose(a: &M3) -> M3 {
+    let mut r = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            r[i][j] = a[j][i];
+        }
+    }
+    r
+}
+
+fn apply(a: &M3, v: [f64; 3]) -> [f64; 3] {
+    [
+        a[0][0] * v[0] + a[0][1] * v[1] + a[0][2] * v[2],
+        a[1][0] * v[0] + a[1][1] * v[1] + a[1][2] * v[2],
+        a[2][0] * v[0] + a[2][1] * v[1] + a[2][2] * v[2],
+    ]
+}
+
+/// The axis frame `C` for angles in degrees applied in `order`.
+fn axis_frame(angles_deg: [f64; 3], order: AxisOrder) -> M3 {
+    let mut c = I3;
+    for &a in &order.0 {
+        c = mul(&rot(a, angles_deg[a]), &c);
+    }
+    c
+}
+
+/// World positions of the root and of every bone's end point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Positions {
+    /// Point names: `root`, then the bones in ASF order.
+    pub names: Vec<String>,
+    /// Points per frame, frame-major: `points_mm[frame * names.len() + point]`, in millimetres.
+    pub points_mm: Vec<[f64; 3]>,
+    /// Sample rate of the motion, Hz.
+    pub sample_rate_hz: f64,
+}
+
+impl Positions {
+    /// Number of frames.
+    pub fn n_frames(&self) -> usize {
+        self.points_mm.len() / self.names.len()
+    }
+
+    /// The points of one frame.
+    ///
+    /// # Panics
+    /// When `frame_idx >= n_frames()`.
+    #[track_caller]
+    pub fn frame(&self, frame_idx: usize) -> &[[f64; 3]] {
+        let n = self.names.len();
+        &self.points_mm[frame_idx * n..(frame_idx + 1) * n]
+    }
+
+    /// Index of a point by name.
+    pub fn point_index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+}
+
+impl Skeleton {
+    /// Computes world positions (mm) of the root and every bone end for each frame.
+    ///
+    /// The motion must carry every DOF of the skeleton.
+    pub fn forward_kinematics(&self, motion: &Motion) -> Result<Positions> {
+        let find = |bone: &str, dof: Dof| {
+            motion
+                .channels()
+                .iter()
+                .position(|c| c.bone == bone && c.dof == dof)
+        };
+        let mut missing = Vec::new();
+        let mut cols_of = |bone: &str, dofs: &[Dof]| -> Vec<(Dof, usize)> {
+            dofs.iter()
+                .filter_map(|&d| {
+                    let c = find(bone, d);
+                    if c.is_none() {
+                        missing.push(format!("{bone}.{}", d.as_str()));
+                    }
+                    c.map(|k| (d, k))
+                })
+                .collect()
+        };
+        let root_cols = cols_of("root", &self.root.order);
+        let bone_cols: Vec<Vec<(Dof, usize)>> = self
+            .bones
+            .iter()
+            .map(|b| cols_of(&b.name, &b.dofs))
+            .collect();
+        if !missing.is_empty() {
+            return Err(Error::SkeletonMismatch {
+                skeleton: self.name.clone(),
+                detail: format!("motion lacks channels {}", missing.join(", ")),
+            });
+        }
+        let scale = self.mm_per_unit();
+        let c_root = axis_frame(self.root.orientation_deg, self.root.axis);
+        let frames_c: Vec<(M3, M3)> = self
+            .bones
+            .iter()
+            .map(|b| {
+                let c = axis_frame(b.axis_deg, b.axis_order);
+                (c, transpose(&c))
+            })
+            .collect();
+        // ASF directions are rounded to six digits: normalise them so that
+        // every bone keeps exactly its declared length.
+        let unit_dirs: Vec<[f64; 3]> = self
+            .bones
+            .iter()
+            .map(|b| {
+                let n = b.direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if n > 0.0 {
+                    b.direction.map(|x| x / n)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        let order = self.topological_order();
+        let n_pts = self.bones.len() + 1;
+        let mut names = vec!["root".to_owned()];
+        names.extend(self.bones.iter().map(|b| b.name.clone()));
+        let mut points = Vec::with_capacity(motion.n_frames() * n_pts);
+        let mut world = vec![I3; self.bones.len()];
+        let mut ends = vec![[0.0; 3]; self.bones.len()];
+        for f in 0..motion.n_frames() {
+            let row = motion.frame(f);
+            let mut pos = self.root.position;
+            let mut m = I3;
+            for &(d, k) in &root_cols {
+                if d.is_rotation() {
+                    m = mul(&rot(d.axis(), row[k]), &m);
+                } else {
+                    pos[d.axis()] += row[k];
+                }
+            }
+            let g_root = mul(&mul(&c_root, &m), &transpose(&c_root));
+            for &b in &order {
+                let bone = &self.bones[b];
+                let mut m = I3;
+                for &(d, k) in &bone_cols[b] {
+                    if d.is_rotation() {
+                        m = mul(&rot(d.axis(), row[k]), &m);
+                    }
+                }
+                let (c, ct) = &frames_c[b];
+                let local = mul(&mul(c, &m), ct);
+                let (parent_rot, start) = match bone.parent {
+                    Some(p) => (world[p], ends[p]),
+                    None => (g_root, pos),
+                };
+                world[b] = mul(&parent_rot, &local);
+                let off = apply(&world[b], unit_dirs[b].map(|x| x * bone.length));
+                ends[b] = [start[0] + off[0], start[1] + off[1], start[2] + off[2]];
+            }
+            points.push(pos.map(|x| x * scale));
+            points.extend(ends.iter().map(|e| e.map(|x| x * scale)));
+        }
+        Ok(Positions {
+            names,
+            points_mm: points,
+            sample_rate_hz: motion.sample_rate_hz(),
+        })
+    }
+}

@@ -1,0 +1,173 @@
+//! Line and token scanning shared by the ASF and AMC parsers.
+
+use crate::error::{ParseError, ParseErrorKind};
+
+/// One whitespace-separated token with its 1-based column.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tok<'a> {
+    pub text: &'a str,
+    pub column: usize,
+}
+
+/// A non-blank, non-comment line.
+#[derive(Debug, Clone)]
+pub(crate) struct Line<'a> {
+    pub number: usize,
+    pub text: &'a str,
+    pub toks: Vec<Tok<'a>>,
+}
+
+/// Turns bytes into text, rejecting anything that is not UTF-8.
+pub(crate) fn text<'a>(file: &str, bytes: &'a [u8]) -> Result<&'a str, ParseError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let off = e.valid_up_to();
+        let line = bytes[..off].iter().filter(|&&b| b == b'\n').count() + 1;
+        ParseError {
+            file: file.to_owned(),
+            line,
+            column: 0,
+            kind: ParseErrorKind::NotUtf8 { byte_offset: off },
+        }
+    })
+}
+
+/// Splits a line into tokens. `(` and `)` count as whitespace so that ASF
+/// limit intervals `(-160.0 20.0)` tokenise into plain numbers.
+pub(crate) fn tokens(line: &str) -> Vec<Tok<'_>> {
+    let mut out = Vec::new();
+    let mut start: Option<(usize, usize)> = None; // (byte, column)
+    let mut column = 0;
+    for (i, c) in line.char_indices() {
+        column += 1;
+        let sep = c.is_whitespace() || c == '(' || c == ')';
+        match (sep, start) {
+            (true, Some((b, col))) => {
+                out.push(Tok {
+                    text: &line[b..i],
+                    column: col,
+                });
+                start = None;
+            }
+            (false, None) => start = Some((i, column)),
+            _ => {}
+        }
+    }
+    if let Some((b, col)) = start {
+        out.push(Tok {
+            text: &line[b..],
+            column: col,
+        });
+    }
+    out
+}
+
+/// Iterates the meaningful lines of a text (CRLF or LF), skipping blank lines
+/// and `#` comments.
+pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
+    text.split('\n').enumerate().filter_map(|(i, raw)| {
+        let t = raw.strip_suffix('\r').unwrap_or(raw);
+        let trimmed = t.trim_start();
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            return None;
+        }
+        Some(Line {
+            number: i + 1,
+            text: t,
+            toks: tokens(t),
+        })
+    })
+}
+
+/// Error helper bound to one file name.
+pub(crate) struct Ctx<'f> {
+    pub file: &'f str,
+}
+
+impl Ctx<'_> {
+    pub fn err(&self, line: usize, column: usize, kind: ParseErrorKind) -> ParseError {
+        ParseError {
+            file: self.file.to_owned(),
+            line,
+            column,
+            kind,
+        }
+    }
+
+    /// Parses a finite number.
+    pub fn num(
+        &self,
+        line: usize,
+        tok: Tok<'_>,
+        expected: &'static str,
+    ) -> Result<f64, ParseError> {
+        self.num_or_inf(line, tok, expected, false)
+    }
+
+    /// Parses a number; `allow_inf` admits `inf`/`-inf` (ASF limits), never NaN.
+    pub fn num_or_inf(
+        &self,
+        line: usize,
+        tok: Tok<'_>,
+        expected: &'static str,
+        allow_inf: bool,
+    ) -> Result<f64, ParseError> {
+        let v: f64 = tok.text.parse().map_err(|_| {
+            self.err(
+                line,
+                tok.column,
+                ParseErrorKind::BadNumber {
+                    token: tok.text.to_owned(),
+                    expected,
+                },
+            )
+        })?;
+        if v.is_nan()
+            || (v.is_infinite() && !(allow_inf && tok.text.to_ascii_lowercase().contains("inf")))
+        {
+            return Err(self.err(
+                line,
+                tok.column,
+                ParseErrorKind::NonFinite {
+                    token: tok.text.to_owned(),
+                },
+            ));
+        }
+        Ok(v)
+    }
+
+    /// Takes exactly `n` numbers after the keyword token.
+    pub fn nums<const N: usize>(
+        &self,
+        l: &Line<'_>,
+        expected: &'static str,
+    ) -> Result<[f64; N], ParseError> {
+        let vals = &l.toks[1..];
+        if vals.len() < N {
+            return Err(self.err(
+                l.number,
+                0,
+                ParseErrorKind::Arity {
+                    keyword: l.toks[0].text.to_owned(),
+                    expected: N,
+                    found: vals.len(),
+                },
+            ));
+        }
+        let mut out = [0.0; N];
+        for (o, t) in out.iter_mut().zip(vals) {
+            *o = self.num(l.number, *t, expected)?;
+        }
+        if vals.len() > N {
+            return Err(self.err(
+                l.number,
+                vals[N].column,
+                ParseErrorKind::Arity {
+                    keyword: l.toks[0].text.to_owned(),
+                    expected: N,
+                    found: vals.len(),
+                },
+            ));
+        }
+        Ok(out)
+    }
+}
