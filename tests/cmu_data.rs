@@ -1,6 +1,8 @@
 //! Every CMU file of the project parses, matches the manifest, and gives
 //! physically sensible forward kinematics.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // integration tests fail loudly
+
 use cpg_mocap::data::{self, Subject};
 use cpg_mocap::{Motion, Skeleton};
 use cpg_tests::{CMU_RATE_HZ, cmu35, manifest, motion35, skeleton35};
@@ -11,12 +13,7 @@ fn text_values(path: &std::path::Path, bone: &str) -> (Vec<f64>, Vec<f64>) {
     let vals: Vec<Vec<f64>> = text
         .lines()
         .filter(|l| l.split_whitespace().next() == Some(bone))
-        .map(|l| {
-            l.split_whitespace()
-                .skip(1)
-                .map(|t| t.parse().unwrap())
-                .collect()
-        })
+        .map(|l| l.split_whitespace().skip(1).map(|t| t.parse().unwrap()).collect())
         .collect();
     (vals[0].clone(), vals[vals.len() - 1].clone())
 }
@@ -26,19 +23,11 @@ fn every_subject35_file_parses_with_manifest_frame_counts() {
     let sk = skeleton35();
     assert_eq!(sk.bones.len(), 30);
     let entries = manifest(Subject::S35);
-    let amcs: Vec<_> = entries
-        .iter()
-        .filter(|e| e.file.ends_with(".amc"))
-        .collect();
-    assert_eq!(
-        amcs.len(),
-        28,
-        "manifest lists 19 complete and 9 partial trials"
-    );
+    let amcs: Vec<_> = entries.iter().filter(|e| e.file.ends_with(".amc")).collect();
+    assert_eq!(amcs.len(), 28, "manifest lists 19 complete and 9 partial trials");
     for e in amcs {
         let path = cmu35(&e.file);
-        let m =
-            Motion::from_amc_file(&path, &sk, CMU_RATE_HZ).unwrap_or_else(|err| panic!("{err}"));
+        let m = Motion::from_amc_file(&path, &sk, CMU_RATE_HZ).unwrap_or_else(|err| panic!("{err}"));
         assert_eq!(Some(m.n_frames()), e.frames, "{}", e.file);
         assert_eq!(m.n_channels(), 62, "{}", e.file);
         for bone in ["root", "lfemur", "rhumerus", "ltoes"] {
@@ -73,29 +62,18 @@ fn check_rigid(sk: &Skeleton, m: &Motion) {
     let p = sk.forward_kinematics(m).unwrap();
     assert_eq!(p.names.len(), 31);
     let scale = sk.mm_per_unit();
-    let (tx, ty, tz) = (
-        m.column("root.tx").unwrap(),
-        m.column("root.ty").unwrap(),
-        m.column("root.tz").unwrap(),
-    );
+    let (tx, ty, tz) = (m.column("root.tx").unwrap(), m.column("root.ty").unwrap(), m.column("root.tz").unwrap());
     for f in 0..p.n_frames() {
         let pts = p.frame(f);
         let root = pts[0];
         for (k, want) in [tx[f], ty[f], tz[f]].iter().enumerate() {
-            assert!(
-                (root[k] - want * scale).abs() < 1e-9,
-                "frame {f}: root axis {k}"
-            );
+            assert!((root[k] - want * scale).abs() < 1e-9, "frame {f}: root axis {k}");
         }
         for (b, bone) in sk.bones.iter().enumerate() {
             let start = bone.parent.map_or(root, |q| pts[q + 1]);
             let len = dist(start, pts[b + 1]);
             let want = bone.length * scale;
-            assert!(
-                (len - want).abs() < 1e-9 * want.max(1.0),
-                "frame {f}: bone {} length {len} vs {want}",
-                bone.name
-            );
+            assert!((len - want).abs() < 1e-9 * want.max(1.0), "frame {f}: bone {} length {len} vs {want}", bone.name);
         }
     }
 }
@@ -114,32 +92,16 @@ fn walking_feet_stay_on_one_floor() {
     let sk = skeleton35();
     let m = motion35(&sk, "35_01.amc");
     let p = sk.forward_kinematics(&m).unwrap();
-    let feet: Vec<usize> = ["lfoot", "ltoes", "rfoot", "rtoes"]
-        .iter()
-        .map(|n| p.point_index(n).unwrap())
-        .collect();
-    let lowest: Vec<f64> = (0..p.n_frames())
-        .map(|f| {
-            feet.iter()
-                .map(|&k| p.frame(f)[k][1])
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
+    let feet: Vec<usize> = ["lfoot", "ltoes", "rfoot", "rtoes"].iter().map(|n| p.point_index(n).unwrap()).collect();
+    let lowest: Vec<f64> =
+        (0..p.n_frames()).map(|f| feet.iter().map(|&k| p.frame(f)[k][1]).fold(f64::INFINITY, f64::min)).collect();
     let lo = lowest.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = lowest.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     // The root travels almost 4 m. Heel-to-toe roll moves the lowest of these
     // points by a few centimetres (47 mm measured); the transposed convention
     // `C⁻¹·M·C` lifts and tilts the feet and gives 95 mm on the same trial.
     let travel = dist(p.frame(0)[0], p.frame(p.n_frames() - 1)[0]);
-    eprintln!(
-        "floor spread {:.1} mm over {:.0} mm of travel",
-        hi - lo,
-        travel
-    );
+    eprintln!("floor spread {:.1} mm over {:.0} mm of travel", hi - lo, travel);
     assert!(travel > 2000.0, "travel {travel}");
-    assert!(
-        hi - lo < 60.0,
-        "lowest foot point varies by {:.1} mm",
-        hi - lo
-    );
+    assert!(hi - lo < 60.0, "lowest foot point varies by {:.1} mm", hi - lo);
 }

@@ -2,6 +2,8 @@
 //! the project manifest says about them. A missing file is a test failure,
 //! never a skip: run `cargo xtask fetch-data` first (the README's test command does).
 
+#![allow(clippy::expect_used, clippy::unwrap_used, clippy::panic)] // test support code: failing loudly is the point
+
 use std::path::{Path, PathBuf};
 
 use cpg_mocap::data::{self, Subject};
@@ -36,8 +38,7 @@ pub fn manifest(subject: Subject) -> Vec<ManifestEntry> {
         Subject::S35 => "data/cmu35",
         Subject::S86 => "data/cmu86",
     };
-    let text =
-        std::fs::read_to_string(workspace_root().join(dir).join("MANIFEST.tsv")).expect("manifest");
+    let text = std::fs::read_to_string(workspace_root().join(dir).join("MANIFEST.tsv")).expect("manifest");
     text.lines()
         .filter(|l| !l.starts_with('#') && !l.starts_with("file\t") && !l.trim().is_empty())
         .map(|l| {

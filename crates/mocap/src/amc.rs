@@ -12,26 +12,13 @@ use crate::{Channel, Motion, Skeleton};
 /// Every bone that carries DOFs must appear exactly once per frame, with one
 /// value per DOF; frames must be numbered consecutively. `:RADIANS` files are
 /// converted to degrees. Channel order follows the bone lines of the first frame.
-pub fn parse_amc(
-    file: &str,
-    bytes: &[u8],
-    skeleton: &Skeleton,
-    sample_rate_hz: f64,
-) -> Result<Motion> {
+pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: f64) -> Result<Motion> {
     let text = lex::text(file, bytes)?;
     let cx = Ctx { file };
     let last_line = text.split('\n').count();
     let mut lines = lex::lines(text).peekable();
     if lines.peek().is_none() {
-        return Err(cx
-            .err(
-                1,
-                0,
-                K::Empty {
-                    expected: "AMC frames",
-                },
-            )
-            .into());
+        return Err(cx.err(1, 0, K::Empty { expected: "AMC frames" }).into());
     }
     let mut radians = false;
     // Header keywords.
@@ -78,12 +65,8 @@ pub fn parse_amc(
                         seen: &mut Vec<bool>,
                         values: &mut Vec<f64>|
      -> std::result::Result<(), ParseError> {
-        let missing: Vec<String> = layout
-            .iter()
-            .zip(seen.iter())
-            .filter(|(_, s)| !**s)
-            .map(|((b, _), _)| b.clone())
-            .collect();
+        let missing: Vec<String> =
+            layout.iter().zip(seen.iter()).filter(|(_, s)| !**s).map(|((b, _), _)| b.clone()).collect();
         if !missing.is_empty() || layout.len() < n_bones_with_dofs {
             let mut bones = missing;
             let have: Vec<&str> = layout.iter().map(|(b, _)| b.as_str()).collect();
@@ -97,12 +80,7 @@ pub fn parse_amc(
                     .filter(|b| !b.dofs.is_empty() && !have.contains(&b.name.as_str()))
                     .map(|b| b.name.clone()),
             );
-            return Err(ParseError {
-                file: file.into(),
-                line,
-                column: 0,
-                kind: K::MissingInFrame { frame, bones },
-            });
+            return Err(ParseError { file: file.into(), line, column: 0, kind: K::MissingInFrame { frame, bones } });
         }
         debug_assert_eq!(row.len(), channels.len());
         values.extend_from_slice(row);
@@ -127,37 +105,15 @@ pub fn parse_amc(
                     .into());
             }
             let n: usize = first.text.parse().map_err(|_| {
-                cx.err(
-                    l.number,
-                    first.column,
-                    K::BadNumber {
-                        token: first.text.into(),
-                        expected: "a frame number",
-                    },
-                )
+                cx.err(l.number, first.column, K::BadNumber { token: first.text.into(), expected: "a frame number" })
             })?;
             match frame_no {
                 None => first_frame_no = n,
                 Some(prev) => {
-                    finish_frame(
-                        prev,
-                        frame_line,
-                        &mut layout,
-                        &channels,
-                        &mut row,
-                        &mut seen,
-                        &mut values,
-                    )?;
+                    finish_frame(prev, frame_line, &mut layout, &channels, &mut row, &mut seen, &mut values)?;
                     if n != prev + 1 {
                         return Err(cx
-                            .err(
-                                l.number,
-                                first.column,
-                                K::FrameNumber {
-                                    expected: prev + 1,
-                                    found: n,
-                                },
-                            )
+                            .err(l.number, first.column, K::FrameNumber { expected: prev + 1, found: n })
                             .into());
                     }
                 }
@@ -171,21 +127,14 @@ pub fn parse_amc(
                 .err(
                     l.number,
                     first.column,
-                    K::Unexpected {
-                        expected: "a frame number".into(),
-                        found: first.text.into(),
-                    },
+                    K::Unexpected { expected: "a frame number".into(), found: first.text.into() },
                 )
                 .into());
         };
         let name = first.text;
-        let dofs = skeleton
-            .dofs_of(name)
-            .ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
+        let dofs = skeleton.dofs_of(name).ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
         if dofs.is_empty() {
-            return Err(cx
-                .err(l.number, first.column, K::NoDofBone(name.into()))
-                .into());
+            return Err(cx.err(l.number, first.column, K::NoDofBone(name.into())).into());
         }
         let vals = &l.toks[1..];
         if vals.len() != dofs.len() {
@@ -193,11 +142,7 @@ pub fn parse_amc(
                 .err(
                     l.number,
                     first.column,
-                    K::WrongValueCount {
-                        bone: name.into(),
-                        found: vals.len(),
-                        declared: dofs.to_vec(),
-                    },
+                    K::WrongValueCount { bone: name.into(), found: vals.len(), declared: dofs.to_vec() },
                 )
                 .into());
         }
@@ -205,10 +150,7 @@ pub fn parse_amc(
             Some(s) => s,
             None if frame == first_frame_no => {
                 layout.push((name.to_owned(), channels.len()));
-                channels.extend(dofs.iter().map(|&dof| Channel {
-                    bone: name.to_owned(),
-                    dof,
-                }));
+                channels.extend(dofs.iter().map(|&dof| Channel { bone: name.to_owned(), dof }));
                 row.resize(channels.len(), 0.0);
                 seen.push(false);
                 layout.len() - 1
@@ -220,9 +162,7 @@ pub fn parse_amc(
                         frame_line,
                         0,
                         K::Unexpected {
-                            expected: format!(
-                                "bone '{name}' in the first frame as in frame {frame}"
-                            ),
+                            expected: format!("bone '{name}' in the first frame as in frame {frame}"),
                             found: "nothing".into(),
                         },
                     )
@@ -230,16 +170,7 @@ pub fn parse_amc(
             }
         };
         if seen[slot] {
-            return Err(cx
-                .err(
-                    l.number,
-                    first.column,
-                    K::DuplicateInFrame {
-                        bone: name.into(),
-                        frame,
-                    },
-                )
-                .into());
+            return Err(cx.err(l.number, first.column, K::DuplicateInFrame { bone: name.into(), frame }).into());
         }
         seen[slot] = true;
         let col = layout[slot].1;
@@ -254,15 +185,7 @@ pub fn parse_amc(
     let Some(last) = frame_no else {
         return Err(cx.err(last_line, 0, K::NoFrames).into());
     };
-    finish_frame(
-        last,
-        frame_line,
-        &mut layout,
-        &channels,
-        &mut row,
-        &mut seen,
-        &mut values,
-    )?;
+    finish_frame(last, frame_line, &mut layout, &channels, &mut row, &mut seen, &mut values)?;
     Motion::new(channels, values, sample_rate_hz).map_err(|e| match e {
         Error::InvalidArgument(m) => Error::InvalidArgument(format!("{file}: {m}")),
         other => other,
@@ -307,15 +230,7 @@ pub fn write_amc(skeleton: &Skeleton, motion: &Motion) -> Result<String> {
         .iter()
         .map(|&b| {
             let dofs = skeleton.dofs_of(b).unwrap_or(&[]);
-            let cols = dofs
-                .iter()
-                .map(|&d| {
-                    motion
-                        .channels()
-                        .iter()
-                        .position(|c| c.bone == b && c.dof == d)
-                })
-                .collect();
+            let cols = dofs.iter().map(|&d| motion.channels().iter().position(|c| c.bone == b && c.dof == d)).collect();
             (b, cols)
         })
         .collect();

@@ -10,30 +10,15 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
     let cx = Ctx { file };
     let lines: Vec<Line<'_>> = lex::lines(text).collect();
     if lines.is_empty() {
-        return Err(cx.err(
-            1,
-            0,
-            K::Empty {
-                expected: "an ASF skeleton",
-            },
-        ));
+        return Err(cx.err(1, 0, K::Empty { expected: "an ASF skeleton" }));
     }
     let last_line = text.split('\n').count();
     let mut sk = Skeleton {
         name: String::new(),
         version: String::new(),
-        units: Units {
-            mass: 1.0,
-            length: 1.0,
-            angle: AngleUnit::Deg,
-        },
+        units: Units { mass: 1.0, length: 1.0, angle: AngleUnit::Deg },
         documentation: String::new(),
-        root: Root {
-            order: Vec::new(),
-            axis: AxisOrder::XYZ,
-            position: [0.0; 3],
-            orientation_deg: [0.0; 3],
-        },
+        root: Root { order: Vec::new(), axis: AxisOrder::XYZ, position: [0.0; 3], orientation_deg: [0.0; 3] },
         bones: Vec::new(),
     };
     let mut seen_root = false;
@@ -48,10 +33,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
             return Err(cx.err(
                 l.number,
                 kw.column,
-                K::Unexpected {
-                    expected: "a section keyword such as ':bonedata'".into(),
-                    found: kw.text.into(),
-                },
+                K::Unexpected { expected: "a section keyword such as ':bonedata'".into(), found: kw.text.into() },
             ));
         }
         i += 1;
@@ -64,24 +46,11 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                     i += 1;
                     let key = u.toks[0];
                     let val = u.toks.get(1).ok_or_else(|| {
-                        cx.err(
-                            u.number,
-                            0,
-                            K::Arity {
-                                keyword: key.text.into(),
-                                expected: 1,
-                                found: 0,
-                            },
-                        )
+                        cx.err(u.number, 0, K::Arity { keyword: key.text.into(), expected: 1, found: 0 })
                     })?;
                     match key.text {
-                        "mass" => {
-                            sk.units.mass = positive(&cx, u.number, *val, "a positive mass unit")?
-                        }
-                        "length" => {
-                            sk.units.length =
-                                positive(&cx, u.number, *val, "a positive length unit")?
-                        }
+                        "mass" => sk.units.mass = positive(&cx, u.number, *val, "a positive mass unit")?,
+                        "length" => sk.units.length = positive(&cx, u.number, *val, "a positive length unit")?,
                         "angle" => {
                             sk.units.angle = match val.text.to_ascii_lowercase().as_str() {
                                 "deg" | "degrees" => AngleUnit::Deg,
@@ -90,10 +59,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                                     return Err(cx.err(
                                         u.number,
                                         val.column,
-                                        K::Unexpected {
-                                            expected: "'deg' or 'rad'".into(),
-                                            found: val.text.into(),
-                                        },
+                                        K::Unexpected { expected: "'deg' or 'rad'".into(), found: val.text.into() },
                                     ));
                                 }
                             }
@@ -102,10 +68,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                             return Err(cx.err(
                                 u.number,
                                 key.column,
-                                K::Unexpected {
-                                    expected: "'mass', 'length' or 'angle'".into(),
-                                    found: other.into(),
-                                },
+                                K::Unexpected { expected: "'mass', 'length' or 'angle'".into(), found: other.into() },
                             ));
                         }
                     }
@@ -128,20 +91,18 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                         "order" => {
                             let mut order = Vec::new();
                             for t in &r.toks[1..] {
-                                order.push(Dof::parse(t.text).ok_or_else(|| {
-                                    cx.err(r.number, t.column, K::UnknownDof(t.text.into()))
-                                })?);
+                                order.push(
+                                    Dof::parse(t.text)
+                                        .ok_or_else(|| cx.err(r.number, t.column, K::UnknownDof(t.text.into())))?,
+                                );
                             }
                             check_unique_dofs(&cx, r, &order)?;
                             sk.root.order = order;
                         }
                         "axis" => sk.root.axis = axis_order(&cx, r, 1)?,
-                        "position" => {
-                            sk.root.position = cx.nums::<3>(r, "a root position coordinate")?
-                        }
+                        "position" => sk.root.position = cx.nums::<3>(r, "a root position coordinate")?,
                         "orientation" => {
-                            sk.root.orientation_deg =
-                                cx.nums::<3>(r, "a root orientation angle")?;
+                            sk.root.orientation_deg = cx.nums::<3>(r, "a root orientation angle")?;
                         }
                         other => {
                             return Err(cx.err(
@@ -164,10 +125,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                         return Err(cx.err(
                             b.number,
                             b.toks[0].column,
-                            K::Unexpected {
-                                expected: "'begin'".into(),
-                                found: b.toks[0].text.into(),
-                            },
+                            K::Unexpected { expected: "'begin'".into(), found: b.toks[0].text.into() },
                         ));
                     }
                     i += 1;
@@ -182,11 +140,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
             ":hierarchy" => {
                 seen_hier = true;
                 if !seen_bones {
-                    return Err(cx.err(
-                        l.number,
-                        0,
-                        K::MissingSection(":bonedata (before :hierarchy)"),
-                    ));
+                    return Err(cx.err(l.number, 0, K::MissingSection(":bonedata (before :hierarchy)")));
                 }
                 parse_hierarchy(&cx, &lines, &mut i, &sk, &mut parents, last_line)?;
             }
@@ -195,9 +149,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                     l.number,
                     kw.column,
                     K::Unexpected {
-                        expected:
-                            "one of :version :name :units :documentation :root :bonedata :hierarchy"
-                                .into(),
+                        expected: "one of :version :name :units :documentation :root :bonedata :hierarchy".into(),
                         found: other.into(),
                     },
                 ));
@@ -214,17 +166,12 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
         return Err(cx.err(last_line, 0, K::MissingSection(":hierarchy")));
     }
     if let Some(orphan) = sk.bones.iter().zip(&parents).find(|(_, p)| p.is_none()) {
-        return Err(cx.err(
-            last_line,
-            0,
-            K::Hierarchy(format!("bone '{}' has no parent", orphan.0.name)),
-        ));
+        return Err(cx.err(last_line, 0, K::Hierarchy(format!("bone '{}' has no parent", orphan.0.name))));
     }
     for (b, p) in sk.bones.iter_mut().zip(parents) {
         b.parent = p.flatten();
     }
-    sk.finish()
-        .map_err(|msg| cx.err(last_line, 0, K::Hierarchy(msg)))?;
+    sk.finish().map_err(|msg| cx.err(last_line, 0, K::Hierarchy(msg)))?;
     Ok(sk)
 }
 
@@ -233,45 +180,23 @@ fn is_section(l: &Line<'_>) -> bool {
 }
 
 fn rest_of(l: &Line<'_>) -> String {
-    l.toks[1..]
-        .iter()
-        .map(|t| t.text)
-        .collect::<Vec<_>>()
-        .join(" ")
+    l.toks[1..].iter().map(|t| t.text).collect::<Vec<_>>().join(" ")
 }
 
-fn positive(
-    cx: &Ctx<'_>,
-    line: usize,
-    t: lex::Tok<'_>,
-    what: &'static str,
-) -> Result<f64, ParseError> {
+fn positive(cx: &Ctx<'_>, line: usize, t: lex::Tok<'_>, what: &'static str) -> Result<f64, ParseError> {
     let v = cx.num(line, t, what)?;
     if v <= 0.0 {
-        return Err(cx.err(
-            line,
-            t.column,
-            K::Unexpected {
-                expected: what.into(),
-                found: t.text.into(),
-            },
-        ));
+        return Err(cx.err(line, t.column, K::Unexpected { expected: what.into(), found: t.text.into() }));
     }
     Ok(v)
 }
 
 fn axis_order(cx: &Ctx<'_>, l: &Line<'_>, idx: usize) -> Result<AxisOrder, ParseError> {
-    let t = l.toks.get(idx).ok_or_else(|| {
-        cx.err(
-            l.number,
-            0,
-            K::UnexpectedEof {
-                expected: "an axis order such as XYZ".into(),
-            },
-        )
-    })?;
-    AxisOrder::parse(t.text)
-        .ok_or_else(|| cx.err(l.number, t.column, K::UnknownAxisOrder(t.text.into())))
+    let t = l
+        .toks
+        .get(idx)
+        .ok_or_else(|| cx.err(l.number, 0, K::UnexpectedEof { expected: "an axis order such as XYZ".into() }))?;
+    AxisOrder::parse(t.text).ok_or_else(|| cx.err(l.number, t.column, K::UnknownAxisOrder(t.text.into())))
 }
 
 fn check_unique_dofs(cx: &Ctx<'_>, l: &Line<'_>, dofs: &[Dof]) -> Result<(), ParseError> {
@@ -280,10 +205,7 @@ fn check_unique_dofs(cx: &Ctx<'_>, l: &Line<'_>, dofs: &[Dof]) -> Result<(), Par
             return Err(cx.err(
                 l.number,
                 l.toks[k + 1].column,
-                K::Unexpected {
-                    expected: "each degree of freedom once".into(),
-                    found: d.as_str().into(),
-                },
+                K::Unexpected { expected: "each degree of freedom once".into(), found: d.as_str().into() },
             ));
         }
     }
@@ -307,53 +229,26 @@ fn parse_bone(
     let mut dof_line = begin_line;
     loop {
         let Some(l) = lines.get(*i) else {
-            return Err(cx.err(
-                last_line,
-                0,
-                K::UnexpectedEof {
-                    expected: "'end' closing the bone block".into(),
-                },
-            ));
+            return Err(cx.err(last_line, 0, K::UnexpectedEof { expected: "'end' closing the bone block".into() }));
         };
         *i += 1;
         let kw = l.toks[0];
         match kw.text {
             "end" => break,
             "id" => {
-                let t = l.toks.get(1).ok_or_else(|| {
-                    cx.err(
-                        l.number,
-                        0,
-                        K::Arity {
-                            keyword: "id".into(),
-                            expected: 1,
-                            found: 0,
-                        },
-                    )
-                })?;
+                let t = l
+                    .toks
+                    .get(1)
+                    .ok_or_else(|| cx.err(l.number, 0, K::Arity { keyword: "id".into(), expected: 1, found: 0 }))?;
                 id = Some(t.text.parse::<u32>().map_err(|_| {
-                    cx.err(
-                        l.number,
-                        t.column,
-                        K::BadNumber {
-                            token: t.text.into(),
-                            expected: "a bone id",
-                        },
-                    )
+                    cx.err(l.number, t.column, K::BadNumber { token: t.text.into(), expected: "a bone id" })
                 })?);
             }
             "name" => {
-                let t = l.toks.get(1).ok_or_else(|| {
-                    cx.err(
-                        l.number,
-                        0,
-                        K::Arity {
-                            keyword: "name".into(),
-                            expected: 1,
-                            found: 0,
-                        },
-                    )
-                })?;
+                let t = l
+                    .toks
+                    .get(1)
+                    .ok_or_else(|| cx.err(l.number, 0, K::Arity { keyword: "name".into(), expected: 1, found: 0 }))?;
                 name = Some(t.text.to_owned());
             }
             "direction" => direction = Some(cx.nums::<3>(l, "a direction component")?),
@@ -363,10 +258,7 @@ fn parse_bone(
                     return Err(cx.err(
                         l.number,
                         l.toks[1].column,
-                        K::Unexpected {
-                            expected: "a length >= 0".into(),
-                            found: l.toks[1].text.into(),
-                        },
+                        K::Unexpected { expected: "a length >= 0".into(), found: l.toks[1].text.into() },
                     ));
                 }
                 length = Some(v);
@@ -376,16 +268,12 @@ fn parse_bone(
                     return Err(cx.err(
                         l.number,
                         0,
-                        K::Arity {
-                            keyword: "axis".into(),
-                            expected: 4,
-                            found: l.toks.len() - 1,
-                        },
+                        K::Arity { keyword: "axis".into(), expected: 4, found: l.toks.len() - 1 },
                     ));
                 }
                 let mut a = [0.0; 3];
-                for k in 0..3 {
-                    a[k] = cx.num(l.number, l.toks[k + 1], "an axis angle")?;
+                for (v, t) in a.iter_mut().zip(&l.toks[1..4]) {
+                    *v = cx.num(l.number, *t, "an axis angle")?;
                 }
                 axis = Some((a, axis_order(cx, l, 4)?));
             }
@@ -394,9 +282,7 @@ fn parse_bone(
                 dofs.clear();
                 for t in &l.toks[1..] {
                     dofs.push(
-                        Dof::parse(t.text).ok_or_else(|| {
-                            cx.err(l.number, t.column, K::UnknownDof(t.text.into()))
-                        })?,
+                        Dof::parse(t.text).ok_or_else(|| cx.err(l.number, t.column, K::UnknownDof(t.text.into())))?,
                     );
                 }
                 check_unique_dofs(cx, l, &dofs)?;
@@ -416,7 +302,7 @@ fn parse_bone(
                         vals.push(cx.num_or_inf(c.number, *t, "a limit", true)?);
                     }
                 }
-                if vals.len() % 2 != 0 {
+                if !vals.len().is_multiple_of(2) {
                     return Err(cx.err(
                         l.number,
                         0,
@@ -452,50 +338,16 @@ fn parse_bone(
         }
     }
     let name = name.ok_or_else(|| {
-        cx.err(
-            begin_line,
-            0,
-            K::MissingField {
-                bone: format!("(block at line {begin_line})"),
-                field: "name",
-            },
-        )
+        cx.err(begin_line, 0, K::MissingField { bone: format!("(block at line {begin_line})"), field: "name" })
     })?;
-    let missing = |field| {
-        cx.err(
-            begin_line,
-            0,
-            K::MissingField {
-                bone: name.clone(),
-                field,
-            },
-        )
-    };
+    let missing = |field| cx.err(begin_line, 0, K::MissingField { bone: name.clone(), field });
     let direction = direction.ok_or_else(|| missing("direction"))?;
     let length = length.ok_or_else(|| missing("length"))?;
     let (axis_deg, axis_order) = axis.ok_or_else(|| missing("axis"))?;
     if !limits.is_empty() && limits.len() != dofs.len() {
-        return Err(cx.err(
-            dof_line,
-            0,
-            K::LimitsCount {
-                bone: name,
-                expected: dofs.len(),
-                found: limits.len(),
-            },
-        ));
+        return Err(cx.err(dof_line, 0, K::LimitsCount { bone: name, expected: dofs.len(), found: limits.len() }));
     }
-    Ok(Bone {
-        id: id.unwrap_or(0),
-        name,
-        direction,
-        length,
-        axis_deg,
-        axis_order,
-        dofs,
-        limits,
-        parent: None,
-    })
+    Ok(Bone { id: id.unwrap_or(0), name, direction, length, axis_deg, axis_order, dofs, limits, parent: None })
 }
 
 fn parse_hierarchy(
@@ -507,34 +359,19 @@ fn parse_hierarchy(
     last_line: usize,
 ) -> Result<(), ParseError> {
     let Some(b) = lines.get(*i) else {
-        return Err(cx.err(
-            last_line,
-            0,
-            K::UnexpectedEof {
-                expected: "'begin' of the hierarchy".into(),
-            },
-        ));
+        return Err(cx.err(last_line, 0, K::UnexpectedEof { expected: "'begin' of the hierarchy".into() }));
     };
     if b.toks[0].text != "begin" {
         return Err(cx.err(
             b.number,
             b.toks[0].column,
-            K::Unexpected {
-                expected: "'begin'".into(),
-                found: b.toks[0].text.into(),
-            },
+            K::Unexpected { expected: "'begin'".into(), found: b.toks[0].text.into() },
         ));
     }
     *i += 1;
     loop {
         let Some(l) = lines.get(*i) else {
-            return Err(cx.err(
-                last_line,
-                0,
-                K::UnexpectedEof {
-                    expected: "'end' closing the hierarchy".into(),
-                },
-            ));
+            return Err(cx.err(last_line, 0, K::UnexpectedEof { expected: "'end' closing the hierarchy".into() }));
         };
         *i += 1;
         if l.toks[0].text == "end" {
@@ -542,21 +379,12 @@ fn parse_hierarchy(
         }
         let parent = match l.toks[0].text {
             "root" => None,
-            n => Some(
-                sk.bone_index(n)
-                    .ok_or_else(|| cx.err(l.number, l.toks[0].column, K::UnknownBone(n.into())))?,
-            ),
+            n => Some(sk.bone_index(n).ok_or_else(|| cx.err(l.number, l.toks[0].column, K::UnknownBone(n.into())))?),
         };
         for t in &l.toks[1..] {
-            let c = sk
-                .bone_index(t.text)
-                .ok_or_else(|| cx.err(l.number, t.column, K::UnknownBone(t.text.into())))?;
+            let c = sk.bone_index(t.text).ok_or_else(|| cx.err(l.number, t.column, K::UnknownBone(t.text.into())))?;
             if parents[c].is_some() {
-                return Err(cx.err(
-                    l.number,
-                    t.column,
-                    K::Hierarchy(format!("bone '{}' has two parents", t.text)),
-                ));
+                return Err(cx.err(l.number, t.column, K::Hierarchy(format!("bone '{}' has two parents", t.text))));
             }
             parents[c] = Some(parent);
         }

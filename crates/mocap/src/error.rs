@@ -75,11 +75,7 @@ pub struct ParseError {
 impl fmt::Display for ParseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.column > 0 {
-            write!(
-                f,
-                "{}:{}:{}: {}",
-                self.file, self.line, self.column, self.kind
-            )
+            write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.kind)
         } else {
             write!(f, "{}:{}: {}", self.file, self.line, self.kind)
         }

@@ -99,12 +99,7 @@ impl Skeleton {
     ///
     /// The motion must carry every DOF of the skeleton.
     pub fn forward_kinematics(&self, motion: &Motion) -> Result<Positions> {
-        let find = |bone: &str, dof: Dof| {
-            motion
-                .channels()
-                .iter()
-                .position(|c| c.bone == bone && c.dof == dof)
-        };
+        let find = |bone: &str, dof: Dof| motion.channels().iter().position(|c| c.bone == bone && c.dof == dof);
         let mut missing = Vec::new();
         let mut cols_of = |bone: &str, dofs: &[Dof]| -> Vec<(Dof, usize)> {
             dofs.iter()
@@ -118,11 +113,7 @@ impl Skeleton {
                 .collect()
         };
         let root_cols = cols_of("root", &self.root.order);
-        let bone_cols: Vec<Vec<(Dof, usize)>> = self
-            .bones
-            .iter()
-            .map(|b| cols_of(&b.name, &b.dofs))
-            .collect();
+        let bone_cols: Vec<Vec<(Dof, usize)>> = self.bones.iter().map(|b| cols_of(&b.name, &b.dofs)).collect();
         if !missing.is_empty() {
             return Err(Error::SkeletonMismatch {
                 skeleton: self.name.clone(),
@@ -146,11 +137,7 @@ impl Skeleton {
             .iter()
             .map(|b| {
                 let n = b.direction.iter().map(|x| x * x).sum::<f64>().sqrt();
-                if n > 0.0 {
-                    b.direction.map(|x| x / n)
-                } else {
-                    [0.0; 3]
-                }
+                if n > 0.0 { b.direction.map(|x| x / n) } else { [0.0; 3] }
             })
             .collect();
         let order = self.topological_order();
@@ -193,10 +180,6 @@ impl Skeleton {
             points.push(pos.map(|x| x * scale));
             points.extend(ends.iter().map(|e| e.map(|x| x * scale)));
         }
-        Ok(Positions {
-            names,
-            points_mm: points,
-            sample_rate_hz: motion.sample_rate_hz(),
-        })
+        Ok(Positions { names, points_mm: points, sample_rate_hz: motion.sample_rate_hz() })
     }
 }

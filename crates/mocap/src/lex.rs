@@ -22,12 +22,7 @@ pub(crate) fn text<'a>(file: &str, bytes: &'a [u8]) -> Result<&'a str, ParseErro
     std::str::from_utf8(bytes).map_err(|e| {
         let off = e.valid_up_to();
         let line = bytes[..off].iter().filter(|&&b| b == b'\n').count() + 1;
-        ParseError {
-            file: file.to_owned(),
-            line,
-            column: 0,
-            kind: ParseErrorKind::NotUtf8 { byte_offset: off },
-        }
+        ParseError { file: file.to_owned(), line, column: 0, kind: ParseErrorKind::NotUtf8 { byte_offset: off } }
     })
 }
 
@@ -42,10 +37,7 @@ pub(crate) fn tokens(line: &str) -> Vec<Tok<'_>> {
         let sep = c.is_whitespace() || c == '(' || c == ')';
         match (sep, start) {
             (true, Some((b, col))) => {
-                out.push(Tok {
-                    text: &line[b..i],
-                    column: col,
-                });
+                out.push(Tok { text: &line[b..i], column: col });
                 start = None;
             }
             (false, None) => start = Some((i, column)),
@@ -53,10 +45,7 @@ pub(crate) fn tokens(line: &str) -> Vec<Tok<'_>> {
         }
     }
     if let Some((b, col)) = start {
-        out.push(Tok {
-            text: &line[b..],
-            column: col,
-        });
+        out.push(Tok { text: &line[b..], column: col });
     }
     out
 }
@@ -70,11 +59,7 @@ pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
         if trimmed.is_empty() || trimmed.starts_with('#') {
             return None;
         }
-        Some(Line {
-            number: i + 1,
-            text: t,
-            toks: tokens(t),
-        })
+        Some(Line { number: i + 1, text: t, toks: tokens(t) })
     })
 }
 
@@ -85,21 +70,11 @@ pub(crate) struct Ctx<'f> {
 
 impl Ctx<'_> {
     pub fn err(&self, line: usize, column: usize, kind: ParseErrorKind) -> ParseError {
-        ParseError {
-            file: self.file.to_owned(),
-            line,
-            column,
-            kind,
-        }
+        ParseError { file: self.file.to_owned(), line, column, kind }
     }
 
     /// Parses a finite number.
-    pub fn num(
-        &self,
-        line: usize,
-        tok: Tok<'_>,
-        expected: &'static str,
-    ) -> Result<f64, ParseError> {
+    pub fn num(&self, line: usize, tok: Tok<'_>, expected: &'static str) -> Result<f64, ParseError> {
         self.num_or_inf(line, tok, expected, false)
     }
 
@@ -112,45 +87,22 @@ impl Ctx<'_> {
         allow_inf: bool,
     ) -> Result<f64, ParseError> {
         let v: f64 = tok.text.parse().map_err(|_| {
-            self.err(
-                line,
-                tok.column,
-                ParseErrorKind::BadNumber {
-                    token: tok.text.to_owned(),
-                    expected,
-                },
-            )
+            self.err(line, tok.column, ParseErrorKind::BadNumber { token: tok.text.to_owned(), expected })
         })?;
-        if v.is_nan()
-            || (v.is_infinite() && !(allow_inf && tok.text.to_ascii_lowercase().contains("inf")))
-        {
-            return Err(self.err(
-                line,
-                tok.column,
-                ParseErrorKind::NonFinite {
-                    token: tok.text.to_owned(),
-                },
-            ));
+        if v.is_nan() || (v.is_infinite() && !(allow_inf && tok.text.to_ascii_lowercase().contains("inf"))) {
+            return Err(self.err(line, tok.column, ParseErrorKind::NonFinite { token: tok.text.to_owned() }));
         }
         Ok(v)
     }
 
     /// Takes exactly `n` numbers after the keyword token.
-    pub fn nums<const N: usize>(
-        &self,
-        l: &Line<'_>,
-        expected: &'static str,
-    ) -> Result<[f64; N], ParseError> {
+    pub fn nums<const N: usize>(&self, l: &Line<'_>, expected: &'static str) -> Result<[f64; N], ParseError> {
         let vals = &l.toks[1..];
         if vals.len() < N {
             return Err(self.err(
                 l.number,
                 0,
-                ParseErrorKind::Arity {
-                    keyword: l.toks[0].text.to_owned(),
-                    expected: N,
-                    found: vals.len(),
-                },
+                ParseErrorKind::Arity { keyword: l.toks[0].text.to_owned(), expected: N, found: vals.len() },
             ));
         }
         let mut out = [0.0; N];
@@ -161,11 +113,7 @@ impl Ctx<'_> {
             return Err(self.err(
                 l.number,
                 vals[N].column,
-                ParseErrorKind::Arity {
-                    keyword: l.toks[0].text.to_owned(),
-                    expected: N,
-                    found: vals.len(),
-                },
+                ParseErrorKind::Arity { keyword: l.toks[0].text.to_owned(), expected: N, found: vals.len() },
             ));
         }
         Ok(out)

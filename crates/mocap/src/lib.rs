@@ -211,10 +211,7 @@ impl Skeleton {
     /// Reads and parses an ASF file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Skeleton> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
         Ok(parse_asf(&file_label(path), &bytes)?)
     }
 
@@ -240,16 +237,10 @@ impl Skeleton {
     /// Bone indices ordered so that every parent precedes its children.
     pub fn topological_order(&self) -> Vec<usize> {
         let mut order = Vec::with_capacity(self.bones.len());
-        let mut frontier: Vec<usize> = (0..self.bones.len())
-            .filter(|&i| self.bones[i].parent.is_none())
-            .collect();
+        let mut frontier: Vec<usize> = (0..self.bones.len()).filter(|&i| self.bones[i].parent.is_none()).collect();
         while let Some(b) = frontier.pop() {
             order.push(b);
-            frontier.extend(
-                (0..self.bones.len())
-                    .rev()
-                    .filter(|&c| self.bones[c].parent == Some(b)),
-            );
+            frontier.extend((0..self.bones.len()).rev().filter(|&c| self.bones[c].parent == Some(b)));
         }
         order
     }
@@ -282,7 +273,5 @@ impl Skeleton {
 
 /// The file name used in error messages: the last path component.
 pub(crate) fn file_label(path: &Path) -> String {
-    path.file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string())
+    path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| path.display().to_string())
 }

@@ -22,10 +22,7 @@ impl Channel {
         if bone.is_empty() {
             return None;
         }
-        Some(Channel {
-            bone: bone.to_owned(),
-            dof: Dof::parse(dof)?,
-        })
+        Some(Channel { bone: bone.to_owned(), dof: Dof::parse(dof)? })
     }
 }
 
@@ -57,11 +54,9 @@ impl Motion {
             )));
         }
         if channels.is_empty() {
-            return Err(Error::InvalidArgument(
-                "a motion needs at least one channel".into(),
-            ));
+            return Err(Error::InvalidArgument("a motion needs at least one channel".into()));
         }
-        if values.len() % channels.len() != 0 {
+        if !values.len().is_multiple_of(channels.len()) {
             return Err(Error::InvalidArgument(format!(
                 "{} values do not divide into frames of {} channels",
                 values.len(),
@@ -77,29 +72,16 @@ impl Motion {
         }
         for (k, c) in channels.iter().enumerate() {
             if channels[..k].contains(c) {
-                return Err(Error::InvalidArgument(format!(
-                    "channel '{c}' appears twice"
-                )));
+                return Err(Error::InvalidArgument(format!("channel '{c}' appears twice")));
             }
         }
-        Ok(Motion {
-            channels,
-            values,
-            sample_rate_hz,
-        })
+        Ok(Motion { channels, values, sample_rate_hz })
     }
 
     /// Reads an AMC file against a skeleton.
-    pub fn from_amc_file(
-        path: impl AsRef<Path>,
-        skeleton: &Skeleton,
-        sample_rate_hz: f64,
-    ) -> Result<Motion> {
+    pub fn from_amc_file(path: impl AsRef<Path>, skeleton: &Skeleton, sample_rate_hz: f64) -> Result<Motion> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
         crate::parse_amc(&crate::file_label(path), &bytes, skeleton, sample_rate_hz)
     }
 
@@ -153,10 +135,7 @@ impl Motion {
         self.channels
             .iter()
             .position(|c| c.to_string() == name)
-            .ok_or_else(|| Error::UnknownChannel {
-                name: name.to_owned(),
-                valid: self.channel_names(),
-            })
+            .ok_or_else(|| Error::UnknownChannel { name: name.to_owned(), valid: self.channel_names() })
     }
 
     /// One channel as a time series.
@@ -171,34 +150,19 @@ impl Motion {
     /// When `idx >= n_channels()`.
     #[track_caller]
     pub fn column_at(&self, idx: usize) -> Vec<f64> {
-        assert!(
-            idx < self.channels.len(),
-            "channel index {idx} out of range"
-        );
-        self.values
-            .iter()
-            .skip(idx)
-            .step_by(self.channels.len())
-            .copied()
-            .collect()
+        assert!(idx < self.channels.len(), "channel index {idx} out of range");
+        self.values.iter().skip(idx).step_by(self.channels.len()).copied().collect()
     }
 
     /// A motion with only the named channels, in the order given.
     pub fn select(&self, names: &[&str]) -> Result<Motion> {
-        let idx: Vec<usize> = names
-            .iter()
-            .map(|n| self.channel_index(n))
-            .collect::<Result<_>>()?;
+        let idx: Vec<usize> = names.iter().map(|n| self.channel_index(n)).collect::<Result<_>>()?;
         let mut values = Vec::with_capacity(idx.len() * self.n_frames());
         for f in 0..self.n_frames() {
             let row = self.frame(f);
             values.extend(idx.iter().map(|&k| row[k]));
         }
-        Motion::new(
-            idx.iter().map(|&k| self.channels[k].clone()).collect(),
-            values,
-            self.sample_rate_hz,
-        )
+        Motion::new(idx.iter().map(|&k| self.channels[k].clone()).collect(), values, self.sample_rate_hz)
     }
 
     /// Frames `start..end`.
@@ -230,19 +194,13 @@ impl Motion {
         }
         let mut values = self.values.clone();
         values.extend_from_slice(&other.values);
-        Ok(Motion {
-            channels: self.channels.clone(),
-            values,
-            sample_rate_hz: self.sample_rate_hz,
-        })
+        Ok(Motion { channels: self.channels.clone(), values, sample_rate_hz: self.sample_rate_hz })
     }
 
     /// This motion repeated `times` times.
     pub fn repeat(&self, times: usize) -> Result<Motion> {
         if times == 0 {
-            return Err(Error::InvalidArgument(
-                "repeat count must be at least 1".into(),
-            ));
+            return Err(Error::InvalidArgument("repeat count must be at least 1".into()));
         }
         Ok(Motion {
             channels: self.channels.clone(),
@@ -259,29 +217,17 @@ impl Motion {
     /// is treated as a loop (the last frame is followed by the first); without,
     /// reading past the last frame is an error. The output has `rate.len()` frames
     /// at the same sample rate.
-    pub fn resample_by_rate(
-        &self,
-        rate: &[f64],
-        start_frame: f64,
-        periodic: bool,
-    ) -> Result<Motion> {
+    pub fn resample_by_rate(&self, rate: &[f64], start_frame: f64, periodic: bool) -> Result<Motion> {
         let n_in = self.n_frames();
         let n = self.channels.len();
         if let Some(k) = rate.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
-            return Err(Error::InvalidArgument(format!(
-                "rate[{k}] = {} must be positive and finite",
-                rate[k]
-            )));
+            return Err(Error::InvalidArgument(format!("rate[{k}] = {} must be positive and finite", rate[k])));
         }
         if rate.is_empty() {
-            return Err(Error::InvalidArgument(
-                "rate must have at least one value".into(),
-            ));
+            return Err(Error::InvalidArgument("rate must have at least one value".into()));
         }
         if !(start_frame.is_finite() && start_frame >= 0.0) {
-            return Err(Error::InvalidArgument(format!(
-                "start frame {start_frame} must be >= 0"
-            )));
+            return Err(Error::InvalidArgument(format!("start frame {start_frame} must be >= 0")));
         }
         let mut values = Vec::with_capacity(rate.len() * n);
         let mut p = start_frame;
@@ -295,21 +241,13 @@ impl Motion {
                 )));
             }
             let i0 = (pos.floor() as usize).min(n_in - 1);
-            let i1 = if periodic {
-                (i0 + 1) % n_in
-            } else {
-                (i0 + 1).min(n_in - 1)
-            };
+            let i1 = if periodic { (i0 + 1) % n_in } else { (i0 + 1).min(n_in - 1) };
             let t = pos - i0 as f64;
             let (a, b) = (self.frame(i0), self.frame(i1));
             values.extend(a.iter().zip(b).map(|(x, y)| x + t * (y - x)));
             p += r;
         }
-        Ok(Motion {
-            channels: self.channels.clone(),
-            values,
-            sample_rate_hz: self.sample_rate_hz,
-        })
+        Ok(Motion { channels: self.channels.clone(), values, sample_rate_hz: self.sample_rate_hz })
     }
 }
 
@@ -350,11 +288,7 @@ impl ZScore {
                 return Err(Error::ConstantChannel(m.channels()[k].to_string()));
             }
         }
-        Ok(ZScore {
-            channels: m.channel_names(),
-            mean,
-            std,
-        })
+        Ok(ZScore { channels: m.channel_names(), mean, std })
     }
 
     fn check(&self, m: &Motion) -> Result<()> {
@@ -372,12 +306,7 @@ impl ZScore {
     pub fn apply(&self, m: &Motion) -> Result<Motion> {
         self.check(m)?;
         let n = self.mean.len();
-        let values = m
-            .values()
-            .iter()
-            .enumerate()
-            .map(|(k, v)| (v - self.mean[k % n]) / self.std[k % n])
-            .collect();
+        let values = m.values().iter().enumerate().map(|(k, v)| (v - self.mean[k % n]) / self.std[k % n]).collect();
         Motion::new(m.channels().to_vec(), values, m.sample_rate_hz())
     }
 
@@ -385,12 +314,7 @@ impl ZScore {
     pub fn invert(&self, m: &Motion) -> Result<Motion> {
         self.check(m)?;
         let n = self.mean.len();
-        let values = m
-            .values()
-            .iter()
-            .enumerate()
-            .map(|(k, v)| v * self.std[k % n] + self.mean[k % n])
-            .collect();
+        let values = m.values().iter().enumerate().map(|(k, v)| v * self.std[k % n] + self.mean[k % n]).collect();
         Motion::new(m.channels().to_vec(), values, m.sample_rate_hz())
     }
 }

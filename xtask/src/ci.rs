@@ -1,0 +1,81 @@
+//! `cargo xtask ci` and `cargo xtask test`.
+
+use std::process::Command;
+
+use anyhow::{Context, bail};
+
+/// Runs a command in the workspace root, echoing it; fails on a non-zero exit.
+pub fn cmd(program: &str, args: &[&str], env: &[(&str, &str)]) -> anyhow::Result<()> {
+    eprintln!("$ {program} {}", args.join(" "));
+    let status = Command::new(program)
+        .args(args)
+        .envs(env.iter().copied())
+        .current_dir(crate::root())
+        .status()
+        .with_context(|| format!("starting {program}"))?;
+    if !status.success() {
+        bail!("`{program} {}` failed ({status})", args.join(" "));
+    }
+    Ok(())
+}
+
+fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
+    let out = Command::new(program)
+        .args(args)
+        .current_dir(crate::root())
+        .output()
+        .with_context(|| format!("starting {program}"))?;
+    if !out.status.success() {
+        bail!("`{program} {}` failed: {}", args.join(" "), String::from_utf8_lossy(&out.stderr));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// The layering rules: a crate, and the packages that must never appear among
+/// its normal (non-dev) dependencies, direct or transitive.
+const RULES: &[(&str, &[&str])] = &[
+    ("cpg-mocap", &["faer", "rayon", "nalgebra", "anyhow", "cpg-reservoir", "cpg-regression", "cpg-hoap2", "cpg-cli"]),
+    ("cpg-regression", &["cpg-reservoir", "cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-reservoir", &["cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-hoap2", &["cpg-reservoir", "cpg-regression", "cpg-cli", "anyhow", "faer", "rayon"]),
+];
+
+/// Checks the layering rules with `cargo tree`.
+pub fn layering() -> anyhow::Result<()> {
+    let metadata = output("cargo", &["metadata", "--no-deps", "--format-version", "1"])?;
+    let mut broken = Vec::new();
+    for (krate, forbidden) in RULES {
+        if !metadata.contains(&format!("\"name\":\"{krate}\"")) {
+            continue; // not created yet
+        }
+        let tree = output("cargo", &["tree", "-p", krate, "-e", "normal", "--prefix", "none", "--format", "{p}"])?;
+        let deps: Vec<&str> = tree.lines().filter_map(|l| l.split_whitespace().next()).collect();
+        for f in *forbidden {
+            if deps.contains(f) {
+                broken.push(format!("{krate} depends on {f}"));
+            }
+        }
+        eprintln!("layering: {krate} ok ({} packages in its tree)", deps.len());
+    }
+    if !broken.is_empty() {
+        bail!("layering rules broken (see ARCHITECTURE.md):\n  {}", broken.join("\n  "));
+    }
+    Ok(())
+}
+
+pub fn run() -> anyhow::Result<()> {
+    cmd("cargo", &["fmt", "--all", "--", "--check"], &[])?;
+    cmd("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"], &[])?;
+    layering()?;
+    cmd("cargo", &["doc", "--workspace", "--no-deps"], &[("RUSTDOCFLAGS", "-D warnings")])?;
+    test(&[])
+}
+
+/// Fetches the data when it is missing, then runs every test.
+pub fn test(extra: &[String]) -> anyhow::Result<()> {
+    let args = crate::fetch::Args::quiet_all();
+    crate::fetch::run(&args).context("fetching the CMU data the tests need")?;
+    let mut a = vec!["test", "--workspace"];
+    a.extend(extra.iter().map(String::as_str));
+    cmd("cargo", &a, &[])
+}
