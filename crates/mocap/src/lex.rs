@@ -51,15 +51,21 @@ pub(crate) fn tokens(line: &str) -> Vec<Tok<'_>> {
 }
 
 /// Iterates the meaningful lines of a text (CRLF or LF), skipping blank lines
-/// and `#` comments.
+/// and `#` comments. Every line yielded has at least one token.
 pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
     text.split('\n').enumerate().filter_map(|(i, raw)| {
         let t = raw.strip_suffix('\r').unwrap_or(raw);
         let trimmed = t.trim_start();
-        if trimmed.is_empty() || trimmed.starts_with('#') {
+        if trimmed.starts_with('#') {
             return None;
         }
-        Some(Line { number: i + 1, text: t, toks: tokens(t) })
+        // A line of only whitespace and parentheses has no tokens: skip it too,
+        // so that every line handed to a parser has a first token.
+        let toks = tokens(t);
+        if toks.is_empty() {
+            return None;
+        }
+        Some(Line { number: i + 1, text: t, toks })
     })
 }
 
