@@ -23,6 +23,7 @@
 
 mod amc;
 mod asf;
+pub mod cycle;
 pub mod data;
 mod error;
 mod kinematics;

@@ -1,0 +1,184 @@
+//! Analysis of rhythmic signals: period, amplitude, seamless loops, phase alignment.
+//!
+//! Signals are plain slices. Multi-channel signals are frame-major
+//! (`frames × n_channels`), like [`Motion::values`](crate::Motion::values).
+
+/// Mean of a slice (0 for an empty one).
+fn mean(x: &[f64]) -> f64 {
+    if x.is_empty() { 0.0 } else { x.iter().sum::<f64>() / x.len() as f64 }
+}
+
+/// Normalised autocorrelation of `x` at `lag` (Pearson correlation of `x[..n−lag]` with `x[lag..]`).
+pub fn autocorrelation(x: &[f64], lag: usize) -> f64 {
+    if lag >= x.len().saturating_sub(1) {
+        return 0.0;
+    }
+    let (a, b) = (&x[..x.len() - lag], &x[lag..]);
+    let (ma, mb) = (mean(a), mean(b));
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (p, q) in a.iter().zip(b) {
+        sab += (p - ma) * (q - mb);
+        saa += (p - ma) * (p - ma);
+        sbb += (q - mb) * (q - mb);
+    }
+    let den = (saa * sbb).sqrt();
+    if den > 0.0 { sab / den } else { 0.0 }
+}
+
+/// The period of a rhythmic signal, in samples: the first lag in
+/// `min_lag..=max_lag` whose autocorrelation peaks within 0.05 of the highest, refined to a fraction of a sample by a
+/// parabola through the peak and its neighbours. `None` when the range is
+/// empty or does not fit the signal.
+pub fn estimate_period(x: &[f64], min_lag: usize, max_lag: usize) -> Option<f64> {
+    let max_lag = max_lag.min(x.len().saturating_sub(2));
+    if min_lag < 1 || min_lag > max_lag {
+        return None;
+    }
+    let ac: Vec<f64> = (min_lag - 1..=max_lag + 1).map(|l| autocorrelation(x, l)).collect();
+    // Multiples of the period correlate almost as well as the period itself:
+    // take the first local maximum that comes within 0.05 of the highest one.
+    let top = ac[1..ac.len() - 1].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let best =
+        (1..ac.len() - 1).find(|&k| ac[k] >= ac[k - 1] && ac[k] >= ac[k + 1] && ac[k] >= top - 0.05).unwrap_or(1);
+    let (y0, y1, y2) = (ac[best - 1], ac[best], ac[best + 1]);
+    let den = y0 - 2.0 * y1 + y2;
+    let shift = if den < 0.0 { (0.5 * (y0 - y2) / den).clamp(-0.5, 0.5) } else { 0.0 };
+    Some((min_lag - 1 + best) as f64 + shift)
+}
+
+/// Half the peak-to-peak range of a signal.
+pub fn half_range(x: &[f64]) -> f64 {
+    let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if x.is_empty() { 0.0 } else { 0.5 * (hi - lo) }
+}
+
+/// A stretch of a signal that can be repeated without a visible seam.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Loop {
+    /// First frame of the loop.
+    pub start: usize,
+    /// Number of frames in the loop.
+    pub len: usize,
+    /// RMS jump at the seam (between the loop's last frame followed by its
+    /// first), in units of each channel's standard deviation, minus the typical
+    /// step of the signal: 0 means the seam looks like any other step.
+    pub seam_excess: f64,
+}
+
+/// Finds the loop of `n_cycles` periods whose repetition is smoothest.
+///
+/// `x` is frame-major with `n_channels` channels; `period` is the signal's
+/// period in frames. Lengths within ±10 % of `n_cycles · period` and every start
+/// that fits are tried. The cost is the jump from the loop's last frame to its
+/// first, compared with the jump from the last frame to the frame that really
+/// follows it, and the same one frame earlier (so slope matters too), each
+/// channel scaled by its standard deviation. `None` when no loop fits.
+pub fn best_loop(x: &[f64], n_channels: usize, period: f64, n_cycles: usize) -> Option<Loop> {
+    if n_channels == 0 || !x.len().is_multiple_of(n_channels) || !(period.is_finite() && period > 1.0) {
+        return None;
+    }
+    let t = x.len() / n_channels;
+    let target = period * n_cycles as f64;
+    let lo = ((target * 0.9).floor() as usize).max(2);
+    let hi = (target * 1.1).ceil() as usize;
+    let scale: Vec<f64> = (0..n_channels)
+        .map(|c| {
+            let col: Vec<f64> = x.iter().skip(c).step_by(n_channels).copied().collect();
+            let m = mean(&col);
+            let s = (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / col.len() as f64).sqrt();
+            if s > 0.0 { 1.0 / s } else { 1.0 }
+        })
+        .collect();
+    let frame = |k: usize| &x[k * n_channels..(k + 1) * n_channels];
+    let dist2 = |a: usize, b: usize| -> f64 {
+        frame(a).iter().zip(frame(b)).zip(&scale).map(|((p, q), s)| ((p - q) * s).powi(2)).sum::<f64>()
+            / n_channels as f64
+    };
+    let typical = (1..t).map(|k| dist2(k - 1, k).sqrt()).sum::<f64>() / (t - 1).max(1) as f64;
+    let mut best: Option<(f64, usize, usize)> = None;
+    for len in lo..=hi {
+        // The frame after the loop (start + len) must exist for the comparison.
+        for start in 1..t.saturating_sub(len) {
+            let end = start + len; // first frame after the loop
+            // The loop wraps from end-1 to start; the data went from end-1 to end.
+            let cost = dist2(end, start) + dist2(end - 1, start - 1);
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, start, len));
+            }
+        }
+    }
+    best.map(|(cost, start, len)| Loop { start, len, seam_excess: ((cost / 2.0).sqrt() - typical).max(0.0) })
+}
+
+/// Aligns `model` (one or more frames, `n_channels` wide) with a periodic
+/// `cycle` (one period of the teacher, frame-major): returns the circular
+/// shift of the cycle that minimises the mean squared error and that error's
+/// NMSE (MSE divided by the cycle's variance, averaged over channels).
+pub fn align_to_cycle(model: &[f64], cycle: &[f64], n_channels: usize) -> (usize, f64) {
+    let t = model.len() / n_channels;
+    let p = cycle.len() / n_channels;
+    if t == 0 || p == 0 {
+        return (0, f64::INFINITY);
+    }
+    let var: Vec<f64> = (0..n_channels)
+        .map(|c| {
+            let col: Vec<f64> = cycle.iter().skip(c).step_by(n_channels).copied().collect();
+            let m = mean(&col);
+            (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / col.len() as f64).max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    let mut best = (0, f64::INFINITY);
+    for shift in 0..p {
+        let mut err = 0.0;
+        for k in 0..t {
+            let q = (shift + k) % p;
+            for c in 0..n_channels {
+                let d = model[k * n_channels + c] - cycle[q * n_channels + c];
+                err += d * d / var[c];
+            }
+        }
+        let nmse = err / (t * n_channels) as f64;
+        if nmse < best.1 {
+            best = (shift, nmse);
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sine(n: usize, period: f64, phase: f64) -> Vec<f64> {
+        (0..n).map(|k| (2.0 * std::f64::consts::PI * k as f64 / period + phase).sin()).collect()
+    }
+
+    #[test]
+    fn period_of_a_sine_to_a_fraction_of_a_sample() {
+        let x = sine(2000, 133.4, 0.3);
+        let p = estimate_period(&x, 50, 300).unwrap();
+        assert!((p - 133.4).abs() < 0.2, "{p}");
+        assert_eq!(estimate_period(&x, 0, 10), None);
+        assert!((half_range(&x) - 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn best_loop_of_a_sine_is_one_period() {
+        let x = sine(400, 100.0, 0.0);
+        let l = best_loop(&x, 1, 100.0, 1).unwrap();
+        assert_eq!(l.len, 100);
+        assert!(l.seam_excess < 1e-9, "{l:?}");
+        let two = best_loop(&x, 1, 100.0, 2).unwrap();
+        assert_eq!(two.len, 200);
+    }
+
+    #[test]
+    fn alignment_recovers_the_phase() {
+        let cycle = sine(100, 100.0, 0.0);
+        let model = sine(250, 100.0, 2.0 * std::f64::consts::PI * 30.0 / 100.0);
+        let (shift, nmse) = align_to_cycle(&model, &cycle, 1);
+        assert_eq!(shift, 30);
+        assert!(nmse < 1e-20);
+    }
+}

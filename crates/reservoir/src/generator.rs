@@ -1,0 +1,185 @@
+//! Step-by-step generation for a robot control loop.
+
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use crate::config::Precision;
+use crate::engine::{Engine, ReadoutR};
+use crate::error::{Error, Result};
+use crate::kernel::SimdDot;
+use crate::model::TrainedCpg;
+use crate::reservoir::rng;
+
+#[derive(Debug, Clone)]
+struct Gen<R: SimdDot> {
+    engine: Engine<R>,
+    readout: ReadoutR<R>,
+    x: Vec<R>,
+    y: Vec<R>,
+    u: Vec<R>,
+    pre: Vec<R>,
+    noise: Vec<R>,
+}
+
+impl<R: SimdDot> Gen<R> {
+    fn new(m: &TrainedCpg) -> Gen<R> {
+        let engine = Engine::<R>::new(&m.reservoir);
+        let (n, d, u) = (engine.n, engine.d, engine.u);
+        Gen {
+            readout: ReadoutR::new(&m.readout),
+            x: m.start_state.iter().map(|&v| R::from_f64(v)).collect(),
+            y: vec![R::ZERO; d],
+            u: vec![R::ZERO; u],
+            pre: vec![R::ZERO; n],
+            noise: vec![R::ZERO; n],
+            engine,
+        }
+    }
+
+    /// Readout, then one update fed back with the output or with `clamp`.
+    /// Writes the normalised output into `out`; returns whether all is finite.
+    fn step(
+        &mut self,
+        control: &[f64],
+        clamp: Option<&[f64]>,
+        noise: Option<(&mut ChaCha8Rng, f64)>,
+        out: &mut [f64],
+    ) -> bool {
+        self.readout.apply_dispatch(self.engine.arch(), &self.x, &mut self.y);
+        for (o, y) in out.iter_mut().zip(&self.y) {
+            *o = y.to_f64();
+        }
+        if let Some(c) = clamp {
+            for (y, v) in self.y.iter_mut().zip(c) {
+                *y = R::from_f64(*v);
+            }
+        }
+        for (a, b) in self.u.iter_mut().zip(control) {
+            *a = R::from_f64(*b);
+        }
+        let z = match noise {
+            Some((g, sigma)) => {
+                for e in self.noise.iter_mut() {
+                    *e = R::from_f64(sigma * g.sample::<f64, _>(StandardNormal));
+                }
+                Some(self.noise.as_slice())
+            }
+            None => None,
+        };
+        self.engine.update(&mut self.x, &self.y, &self.u, &mut self.pre, z);
+        out.iter().all(|v| v.is_finite()) && self.x.iter().all(|v| v.finite())
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Inner {
+    F32(Gen<f32>),
+    F64(Gen<f64>),
+}
+
+/// Runs a trained CPG one step at a time, in free run from its start state.
+///
+/// Each [`step`](Generator::step) reads the output from the state, feeds it
+/// back, and advances the state; it allocates nothing. Outputs come back in
+/// the units of the training data (the normalisation is undone), controls go
+/// in as they were given in training. A non-finite control is rejected before
+/// it touches the state; a non-finite state or output becomes
+/// [`Error::Diverged`], and the generator refuses to continue until it is reset.
+#[derive(Debug, Clone)]
+pub struct Generator {
+    inner: Inner,
+    mean: Vec<f64>,
+    std: Vec<f64>,
+    normalised: Vec<f64>,
+    out: Vec<f64>,
+    n_controls: usize,
+    steps: u64,
+    noise: Option<(ChaCha8Rng, f64)>,
+    diverged: bool,
+}
+
+impl Generator {
+    /// A generator at the model's start state.
+    pub fn new(model: &TrainedCpg) -> Generator {
+        let inner = match model.reservoir.config().precision {
+            Precision::F32 => Inner::F32(Gen::new(model)),
+            Precision::F64 => Inner::F64(Gen::new(model)),
+        };
+        let d = model.outputs.len();
+        Generator {
+            inner,
+            mean: model.outputs.iter().map(|o| o.mean).collect(),
+            std: model.outputs.iter().map(|o| o.std).collect(),
+            normalised: vec![0.0; d],
+            out: vec![0.0; d],
+            n_controls: model.controls.len(),
+            steps: 0,
+            noise: None,
+            diverged: false,
+        }
+    }
+
+    /// Adds Gaussian noise of `variance` to every state after each update
+    /// (`variance` 0 switches it off).
+    pub fn set_state_noise(&mut self, variance: f64, seed: u64) {
+        self.noise = (variance > 0.0).then(|| (rng(seed, 9_000), variance.sqrt()));
+    }
+
+    /// Number of steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// One step of free run. `control` has one value per control input.
+    pub fn step(&mut self, control: &[f64]) -> Result<&[f64]> {
+        self.advance(control, None)
+    }
+
+    /// One step whose fed-back output is forced to `clamp_normalised` (in
+    /// normalised units) instead of the network's own output: the paper's
+    /// perturbation. Returns the network's own (unforced) output.
+    pub fn step_clamped(&mut self, control: &[f64], clamp_normalised: &[f64]) -> Result<&[f64]> {
+        self.advance(control, Some(clamp_normalised))
+    }
+
+    /// The last output in normalised units (what the network sees).
+    pub fn normalised_output(&self) -> &[f64] {
+        &self.normalised
+    }
+
+    fn advance(&mut self, control: &[f64], clamp: Option<&[f64]>) -> Result<&[f64]> {
+        if self.diverged {
+            return Err(Error::Diverged { what: "state", step: self.steps });
+        }
+        if control.len() != self.n_controls {
+            return Err(Error::Shape(format!(
+                "{} control values for {} control inputs",
+                control.len(),
+                self.n_controls
+            )));
+        }
+        if let Some(k) = control.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFiniteInput { what: "control", sample: self.steps as usize, column: k });
+        }
+        if let Some(c) = clamp {
+            if c.len() != self.out.len() || c.iter().any(|v| !v.is_finite()) {
+                return Err(Error::Shape(format!("clamp needs {} finite values", self.out.len())));
+            }
+        }
+        let noise = self.noise.as_mut().map(|(g, s)| (g, *s));
+        let ok = match &mut self.inner {
+            Inner::F32(g) => g.step(control, clamp, noise, &mut self.normalised),
+            Inner::F64(g) => g.step(control, clamp, noise, &mut self.normalised),
+        };
+        self.steps += 1;
+        if !ok {
+            self.diverged = true;
+            return Err(Error::Diverged { what: "state or output", step: self.steps });
+        }
+        for ((o, v), (m, s)) in self.out.iter_mut().zip(&self.normalised).zip(self.mean.iter().zip(&self.std)) {
+            *o = v * s + m;
+        }
+        Ok(&self.out)
+    }
+}

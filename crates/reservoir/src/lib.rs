@@ -1,0 +1,44 @@
+//! # cpg-reservoir
+//!
+//! A reservoir-computing central pattern generator after wyffels & Schrauwen
+//! (2009): a leaky-integrator echo state network with output feedback and
+//! control inputs,
+//!
+//! ```text
+//! x[k+1] = (1 − λ)·x[k] + λ·f(W·x[k] + W_in·u[k] + W_fb·y[k] + b)
+//! y[k]   = W_out·x[k] + b_out
+//! ```
+//!
+//! whose readout `W_out` is trained by ridge regression on teacher-forced
+//! states, with the penalty chosen by running every candidate freely, with
+//! state noise, over a validation sequence.
+//!
+//! - [`ReservoirConfig`] → [`ReservoirConfig::check`] → [`Reservoir::new`]: seeded weights,
+//!   W rescaled to a spectral radius computed from its eigenvalues.
+//! - [`train`]: harvest, all penalties from one factorisation
+//!   ([`cpg_regression::RidgePath`]), batched noisy free-run validation across all
+//!   cores, best penalty.
+//! - [`TrainedCpg`]: the model with provenance, saved in a versioned, checksummed file.
+//! - [`Generator`]: allocation-free `step(control) → output` for a control loop.
+//!
+//! Determinism: the same configuration, seed and data give bit-identical
+//! weights, models and outputs whatever the number of threads. Inner loops
+//! sum in a fixed order and `tanh` is computed by this crate, not by libm.
+
+mod config;
+mod engine;
+mod error;
+mod generator;
+pub mod kernel;
+mod model;
+mod real;
+mod reservoir;
+mod train;
+
+pub use config::{Activation, CheckedConfig, Coupling, Precision, ReservoirConfig};
+pub use error::{ConfigError, Error, Result};
+pub use generator::Generator;
+pub use model::{FORMAT_VERSION, MAGIC, OutputChannel, Provenance, TrainedCpg};
+pub use real::Real;
+pub use reservoir::{Reservoir, spectral_radius};
+pub use train::{Sequence, TrainSettings, Training, TrainingData, ValidationPoint, train};

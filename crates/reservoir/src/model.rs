@@ -1,0 +1,266 @@
+//! A trained CPG and its file format.
+//!
+//! File layout (all integers little-endian):
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 0..8 | magic `CPGMODEL` |
+//! | 8..12 | format version (u32), currently 1 |
+//! | 12..20 | payload length in bytes (u64) |
+//! | 20..28 | FNV-1a 64 checksum of the payload |
+//! | 28.. | payload: bincode 2 (standard config) of the model with its configuration, provenance and weights |
+//!
+//! The header is checked before anything is decoded, so random bytes, a
+//! truncated copy or a flipped bit give a clear error, never a panic or a
+//! half-built model. After decoding, every shape is checked again.
+
+use std::io::Write;
+use std::path::Path;
+
+use cpg_regression::Readout;
+use serde::{Deserialize, Serialize};
+
+use crate::config::ReservoirConfig;
+use crate::error::{Error, Result};
+use crate::reservoir::Reservoir;
+use crate::train::{TrainSettings, Training, ValidationPoint};
+
+/// Magic bytes that open every model file.
+pub const MAGIC: &[u8; 8] = b"CPGMODEL";
+/// The format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER: usize = 28;
+
+/// Name and normalisation of one output channel: the network works on
+/// `(value − mean) / std`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputChannel {
+    /// Channel name (for mocap: `lfemur.rx`).
+    pub name: String,
+    /// Mean subtracted before training.
+    pub mean: f64,
+    /// Standard deviation divided by before training.
+    pub std: f64,
+}
+
+/// Where a model came from and how its penalty was chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Free text describing the data (files, channels, rate, preprocessing).
+    pub data: String,
+    /// Training settings.
+    pub settings: TrainSettings,
+    /// The chosen ridge penalty.
+    pub chosen_penalty: f64,
+    /// Every candidate's validation score, in grid order.
+    pub validation_curve: Vec<ValidationPoint>,
+    /// One-step NMSE on the training states.
+    pub train_nmse: f64,
+    /// Sample rate of the data, Hz.
+    pub sample_rate_hz: f64,
+    /// Version of cpg-reservoir that trained the model.
+    pub crate_version: String,
+}
+
+/// A trained reservoir CPG: weights, readout, start state, channel names and provenance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainedCpg {
+    /// The reservoir (configuration, seed, weights).
+    pub reservoir: Reservoir,
+    /// The trained readout.
+    pub readout: Readout,
+    /// State at the end of the teacher-forced warm-up: generation starts here.
+    pub start_state: Vec<f64>,
+    /// Output channels with their normalisation.
+    pub outputs: Vec<OutputChannel>,
+    /// Names of the control inputs.
+    pub controls: Vec<String>,
+    /// Provenance.
+    pub provenance: Provenance,
+}
+
+/// The serialisable form of a model (the payload of a file).
+#[derive(Serialize, Deserialize)]
+struct FileV1 {
+    config: ReservoirConfig,
+    seed: u64,
+    w: Vec<f64>,
+    w_feedback: Vec<f64>,
+    w_input: Vec<f64>,
+    bias: Vec<f64>,
+    raw_spectral_radius: f64,
+    readout: Readout,
+    start_state: Vec<f64>,
+    outputs: Vec<OutputChannel>,
+    controls: Vec<String>,
+    provenance: Provenance,
+}
+
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+impl TrainedCpg {
+    /// Assembles a model from a training result, checking that every part fits.
+    pub fn new(
+        reservoir: Reservoir,
+        training: Training,
+        settings: TrainSettings,
+        outputs: Vec<OutputChannel>,
+        controls: Vec<String>,
+        data: String,
+        sample_rate_hz: f64,
+    ) -> Result<TrainedCpg> {
+        let provenance = Provenance {
+            data,
+            chosen_penalty: settings.penalties.values()[training.chosen],
+            settings,
+            validation_curve: training.curve,
+            train_nmse: training.train_nmse,
+            sample_rate_hz,
+            crate_version: env!("CARGO_PKG_VERSION").into(),
+        };
+        let m = TrainedCpg {
+            reservoir,
+            readout: training.readout,
+            start_state: training.start_state,
+            outputs,
+            controls,
+            provenance,
+        };
+        m.check()?;
+        Ok(m)
+    }
+
+    fn check(&self) -> Result<()> {
+        let (n, d, u) = (self.reservoir.n_neurons(), self.reservoir.n_outputs(), self.reservoir.n_inputs());
+        let r = &self.readout;
+        if r.n_features != n || r.weights.len() != n * d || r.bias.len() != d {
+            return Err(Error::Shape(format!(
+                "readout is {}×{} with {} biases, the reservoir needs {d}×{n}",
+                r.weights.len() / r.n_features.max(1),
+                r.n_features,
+                r.bias.len()
+            )));
+        }
+        if self.start_state.len() != n {
+            return Err(Error::Shape(format!("start state has {} values, expected {n}", self.start_state.len())));
+        }
+        if self.outputs.len() != d {
+            return Err(Error::Shape(format!("{} output channels for {d} outputs", self.outputs.len())));
+        }
+        if self.controls.len() != u {
+            return Err(Error::Shape(format!("{} control names for {u} inputs", self.controls.len())));
+        }
+        let finite = r.weights.iter().chain(&r.bias).chain(&self.start_state).all(|v| v.is_finite());
+        if !finite || self.outputs.iter().any(|o| !(o.mean.is_finite() && o.std.is_finite() && o.std > 0.0)) {
+            return Err(Error::Shape("non-finite readout, state or normalisation".into()));
+        }
+        Ok(())
+    }
+
+    /// Serialises the model into the file format.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        let file = FileV1 {
+            config: self.reservoir.config().clone(),
+            seed: self.reservoir.seed(),
+            w: self.reservoir.w().to_vec(),
+            w_feedback: self.reservoir.w_feedback().to_vec(),
+            w_input: self.reservoir.w_input().to_vec(),
+            bias: self.reservoir.bias().to_vec(),
+            raw_spectral_radius: self.reservoir.raw_spectral_radius(),
+            readout: self.readout.clone(),
+            start_state: self.start_state.clone(),
+            outputs: self.outputs.clone(),
+            controls: self.controls.clone(),
+            provenance: self.provenance.clone(),
+        };
+        let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
+            .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
+        let mut out = Vec::with_capacity(HEADER + payload.len());
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        out.extend_from_slice(&payload);
+        Ok(out)
+    }
+
+    /// Parses the file format; `path` only names the source in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<TrainedCpg> {
+        let bad = |reason: String| Error::ModelFile { path: path.to_owned(), reason };
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err(bad("not a cpg model file (the first 8 bytes are not `CPGMODEL`)".into()));
+        }
+        if bytes.len() < HEADER {
+            return Err(bad(format!("truncated: {} bytes, the header alone has {HEADER}", bytes.len())));
+        }
+        let word = |a: usize, b: usize| -> [u8; 8] {
+            let mut w = [0u8; 8];
+            w[..b - a].copy_from_slice(&bytes[a..b]);
+            w
+        };
+        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if version != FORMAT_VERSION {
+            return Err(bad(format!(
+                "format version {version}; this build of cpg reads version {FORMAT_VERSION} (retrain or use a matching cpg)"
+            )));
+        }
+        let len = u64::from_le_bytes(word(12, 20));
+        let sum = u64::from_le_bytes(word(20, 28));
+        let payload = &bytes[HEADER..];
+        if payload.len() as u64 != len {
+            return Err(bad(format!(
+                "truncated or padded: the header announces {len} payload bytes, the file has {}",
+                payload.len()
+            )));
+        }
+        if fnv1a(payload) != sum {
+            return Err(bad("corrupt: the payload checksum does not match".into()));
+        }
+        let (f, used): (FileV1, usize) = bincode::serde::decode_from_slice(payload, bincode::config::standard())
+            .map_err(|e| bad(format!("corrupt payload: {e}")))?;
+        if used != payload.len() {
+            return Err(bad(format!("corrupt payload: {} trailing bytes", payload.len() - used)));
+        }
+        let reservoir =
+            Reservoir::from_parts(f.config, f.seed, f.w, f.w_feedback, f.w_input, f.bias, f.raw_spectral_radius)
+                .map_err(|e| bad(format!("inconsistent model: {e}")))?;
+        let m = TrainedCpg {
+            reservoir,
+            readout: f.readout,
+            start_state: f.start_state,
+            outputs: f.outputs,
+            controls: f.controls,
+            provenance: f.provenance,
+        };
+        m.check().map_err(|e| bad(format!("inconsistent model: {e}")))?;
+        Ok(m)
+    }
+
+    /// Writes the model to `path` atomically (a temporary file beside it, then a rename).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = self.to_bytes()?;
+        let io = |source| Error::Io { path: path.to_owned(), source };
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        std::fs::create_dir_all(dir).map_err(io)?;
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        let result = (|| {
+            let mut f = std::fs::File::create(&tmp)?;
+            f.write_all(&bytes)?;
+            f.sync_all()?;
+            std::fs::rename(&tmp, path)
+        })();
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result.map_err(io)
+    }
+
+    /// Reads a model file.
+    pub fn load(path: &Path) -> Result<TrainedCpg> {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        TrainedCpg::from_bytes(&bytes, path)
+    }
+}

@@ -1,0 +1,257 @@
+//! Training a CPG: teacher-forced harvesting, ridge regression for every
+//! penalty, validation of every candidate in noisy free run, choice of the best.
+
+use cpg_regression::{PenaltyGrid, Readout, RidgePath, sweep, sweep_chunked};
+use faer::Mat;
+use rand::RngExt;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use crate::config::Precision;
+use crate::engine::{Engine, ReadoutR};
+use crate::error::{Error, Result};
+use crate::kernel::SimdDot;
+use crate::reservoir::{Reservoir, rng};
+
+/// Signals over time: outputs (`T × D`) and control inputs (`T × U`), frame-major.
+/// Outputs are in the units the network sees (normally z-scored).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Sequence {
+    /// `T × D` output values.
+    pub outputs: Vec<f64>,
+    /// `T × U` control values (empty when U = 0).
+    pub controls: Vec<f64>,
+}
+
+impl Sequence {
+    /// A sequence with no control inputs.
+    pub fn outputs_only(outputs: Vec<f64>) -> Sequence {
+        Sequence { outputs, controls: Vec::new() }
+    }
+
+    /// Number of samples, given D.
+    pub fn len(&self, n_outputs: usize) -> usize {
+        self.outputs.len() / n_outputs.max(1)
+    }
+
+    fn check(&self, what: &'static str, d: usize, u: usize) -> Result<usize> {
+        if d == 0 || !self.outputs.len().is_multiple_of(d) {
+            return Err(Error::Shape(format!("{what}: {} output values do not form rows of {d}", self.outputs.len())));
+        }
+        let t = self.outputs.len() / d;
+        if self.controls.len() != t * u {
+            return Err(Error::Shape(format!(
+                "{what}: {} control values, expected {t} samples × {u} inputs = {}",
+                self.controls.len(),
+                t * u
+            )));
+        }
+        for (vals, cols) in [(&self.outputs, d), (&self.controls, u)] {
+            if let Some(k) = vals.iter().position(|v| !v.is_finite()) {
+                return Err(Error::NonFiniteInput { what, sample: k / cols, column: k % cols });
+            }
+        }
+        Ok(t)
+    }
+}
+
+/// Data for training and validation.
+///
+/// The readout is trained on the states harvested while `train` is fed by
+/// teacher forcing (after discarding `washout` steps). Each candidate readout
+/// is validated by teacher-forcing `warmup` from the zero state and then
+/// running freely, with state noise, over `validation`, whose outputs are the
+/// targets and whose controls drive the network. For a periodic signal,
+/// `warmup` is the training sequence and `validation` its continuation; the
+/// state at the end of `warmup` is also where generation starts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainingData {
+    /// Teacher-forced training sequence.
+    pub train: Sequence,
+    /// Teacher-forced warm-up before the validation free run.
+    pub warmup: Sequence,
+    /// Targets and controls of the validation free run.
+    pub validation: Sequence,
+}
+
+/// How to train.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainSettings {
+    /// Initial teacher-forced steps whose states are discarded.
+    pub washout: usize,
+    /// Candidate ridge penalties.
+    pub penalties: PenaltyGrid,
+    /// Variance of the Gaussian noise added to every state during validation (paper: 0.001).
+    pub noise_variance: f64,
+    /// Noise realisations each candidate is validated with; the same ones for every candidate.
+    pub n_noise_draws: usize,
+    /// Seed of the validation noise.
+    pub noise_seed: u64,
+}
+
+impl TrainSettings {
+    /// The paper's validation: the 91-value grid, noise variance 0.001; we add
+    /// a washout of 200 steps and average 5 noise draws (one draw makes the
+    /// validation curve jump between neighbouring penalties).
+    pub fn wyffels_schrauwen_2009() -> TrainSettings {
+        TrainSettings {
+            washout: 200,
+            penalties: PenaltyGrid::wyffels_2009(),
+            noise_variance: 1e-3,
+            n_noise_draws: 5,
+            noise_seed: 1,
+        }
+    }
+
+    fn check(&self, train_len: usize) -> Result<()> {
+        if self.washout + 2 > train_len {
+            return Err(Error::Settings(format!(
+                "washout of {} steps leaves fewer than 2 of the {train_len} training samples",
+                self.washout
+            )));
+        }
+        if !(self.noise_variance.is_finite() && self.noise_variance >= 0.0) {
+            return Err(Error::Settings(format!("noise variance {} must be >= 0", self.noise_variance)));
+        }
+        if self.n_noise_draws == 0 {
+            return Err(Error::Settings("at least one noise draw is needed".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One candidate penalty and how it validated.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ValidationPoint {
+    /// The ridge penalty.
+    pub penalty: f64,
+    /// Free-run NMSE averaged over the noise draws (infinite if the run diverged).
+    pub nmse: f64,
+    /// Free-run NMSE of each draw.
+    pub nmse_per_draw: Vec<f64>,
+}
+
+/// The outcome of training: the readout and how it was chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Training {
+    /// The chosen readout.
+    pub readout: Readout,
+    /// Index of the chosen penalty in the grid.
+    pub chosen: usize,
+    /// Every candidate, in grid order.
+    pub curve: Vec<ValidationPoint>,
+    /// State after the warm-up: where generation starts.
+    pub start_state: Vec<f64>,
+    /// One-step (teacher-forced) NMSE of the chosen readout on the training states.
+    pub train_nmse: f64,
+}
+
+/// Trains the readout of `reservoir` on `data`: harvest, all penalties from
+/// one factorisation, each validated in noisy free run, the best chosen
+/// (ties go to the larger penalty). With the same reservoir, data and settings
+/// the result is identical whatever the number of threads.
+pub fn train(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
+    match reservoir.config().precision {
+        Precision::F32 => train_in::<f32>(reservoir, data, settings),
+        Precision::F64 => train_in::<f64>(reservoir, data, settings),
+    }
+}
+
+fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
+    let engine = Engine::<R>::new(reservoir);
+    let (n, d, u) = (engine.n, engine.d, engine.u);
+    let t = data.train.check("training sequence", d, u)?;
+    data.warmup.check("warm-up sequence", d, u)?;
+    let steps = data.validation.check("validation sequence", d, u)?;
+    settings.check(t)?;
+    if steps == 0 {
+        return Err(Error::Settings("the validation sequence is empty".into()));
+    }
+
+    // Harvest: the state after feeding sample k predicts sample k + 1.
+    let rows = t - 1 - settings.washout;
+    let mut states = Mat::<f64>::zeros(rows, n);
+    let mut x = vec![R::ZERO; n];
+    engine.teacher_force(&mut x, &data.train.outputs[..(t - 1) * d], &data.train.controls[..(t - 1) * u], |k, s| {
+        if k >= settings.washout {
+            for (j, v) in s.iter().enumerate() {
+                states[(k - settings.washout, j)] = v.to_f64();
+            }
+        }
+    });
+    let targets = Mat::from_fn(rows, d, |i, j| data.train.outputs[(i + settings.washout + 1) * d + j]);
+    let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
+    let grid = &settings.penalties;
+    let readouts: Vec<Readout> = sweep(grid, |_, p| path.solve(p)).into_iter().collect::<Result<_, _>>()?;
+    let readouts_r: Vec<ReadoutR<R>> = readouts.iter().map(ReadoutR::new).collect();
+
+    // Validation start state.
+    let mut x0 = vec![R::ZERO; n];
+    engine.teacher_force(&mut x0, &data.warmup.outputs, &data.warmup.controls, |_, _| {});
+
+    // Common random numbers: draw r is the same sequence for every candidate.
+    let sigma = settings.noise_variance.sqrt();
+    let noises: Vec<Vec<R>> = (0..settings.n_noise_draws)
+        .map(|r| {
+            let mut g = rng(settings.noise_seed, 1_000 + r as u64);
+            (0..steps * n).map(|_| R::from_f64(sigma * g.sample::<f64, _>(StandardNormal))).collect()
+        })
+        .collect();
+    let var: Vec<f64> = (0..d)
+        .map(|j| {
+            let col: Vec<f64> = data.validation.outputs.iter().skip(j).step_by(d).copied().collect();
+            let m = col.iter().sum::<f64>() / steps as f64;
+            (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / steps as f64).max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    let draws = settings.n_noise_draws;
+    let n_cols = grid.len() * draws;
+    let chunk = n_cols.div_ceil(rayon::current_num_threads()).div_ceil(4) * 4;
+    let column_nmse: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
+        let rs: Vec<&ReadoutR<R>> = cols.clone().map(|c| &readouts_r[c / draws]).collect();
+        let zs: Vec<Option<&[R]>> = cols.clone().map(|c| (sigma > 0.0).then(|| noises[c % draws].as_slice())).collect();
+        engine
+            .free_run_batch(&x0, &rs, &zs, &data.validation.outputs, &data.validation.controls)
+            .into_iter()
+            .map(|sse| sse.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
+            .collect()
+    });
+    let curve: Vec<ValidationPoint> = grid
+        .values()
+        .iter()
+        .enumerate()
+        .map(|(i, &penalty)| {
+            let per: Vec<f64> = column_nmse[i * draws..(i + 1) * draws].to_vec();
+            let nmse =
+                if per.iter().all(|v| v.is_finite()) { per.iter().sum::<f64>() / draws as f64 } else { f64::INFINITY };
+            ValidationPoint { penalty, nmse, nmse_per_draw: per }
+        })
+        .collect();
+    let chosen = (0..curve.len()).fold(0, |best, i| if curve[i].nmse < curve[best].nmse { i } else { best });
+    if !curve[chosen].nmse.is_finite() {
+        return Err(Error::Settings("every candidate penalty diverged in validation".into()));
+    }
+    let readout = readouts[chosen].clone();
+    let mut pred = vec![0.0; d];
+    let mut sq = vec![0.0; d];
+    let mut tv = vec![0.0; d];
+    let mut tm = vec![0.0; d];
+    for i in 0..rows {
+        for j in 0..d {
+            tm[j] += targets[(i, j)] / rows as f64;
+        }
+    }
+    let mut row = vec![0.0; n];
+    for i in 0..rows {
+        for (j, r) in row.iter_mut().enumerate() {
+            *r = states[(i, j)];
+        }
+        readout.apply(&row, &mut pred);
+        for j in 0..d {
+            sq[j] += (pred[j] - targets[(i, j)]).powi(2);
+            tv[j] += (targets[(i, j)] - tm[j]).powi(2);
+        }
+    }
+    let train_nmse = sq.iter().zip(&tv).map(|(s, v)| s / v.max(f64::MIN_POSITIVE)).sum::<f64>() / d as f64;
+    Ok(Training { readout, chosen, curve, start_state: x0.iter().map(|v| v.to_f64()).collect(), train_nmse })
+}
