@@ -111,6 +111,21 @@ pub fn best_loop(x: &[f64], n_channels: usize, period: f64, n_cycles: usize) -> 
     best.map(|(cost, start, len)| Loop { start, len, seam_excess: ((cost / 2.0).sqrt() - typical).max(0.0) })
 }
 
+/// `len` frames of a looped signal: frame `k` is `cycle[(offset + k) mod period]`
+/// (frame-major, `n_channels` wide).
+pub fn tile(cycle: &[f64], n_channels: usize, len: usize, offset: usize) -> Vec<f64> {
+    let p = cycle.len() / n_channels.max(1);
+    if p == 0 {
+        return Vec::new();
+    }
+    (0..len)
+        .flat_map(|k| {
+            let f = (offset + k) % p;
+            cycle[f * n_channels..(f + 1) * n_channels].iter().copied()
+        })
+        .collect()
+}
+
 /// Aligns `model` (one or more frames, `n_channels` wide) with a periodic
 /// `cycle` (one period of the teacher, frame-major): returns the circular
 /// shift of the cycle that minimises the mean squared error and that error's

@@ -101,10 +101,7 @@ impl RidgePath {
         matmul(gram.as_mut(), Accum::Replace, xc.transpose(), xc.as_ref(), 1.0, Par::Seq);
         let mut xty = Mat::<f64>::zeros(n, y.ncols());
         matmul(xty.as_mut(), Accum::Replace, xc.transpose(), yc.as_ref(), 1.0, Par::Seq);
-        let evd = gram.self_adjoint_eigen(Side::Lower).map_err(|_| Error::Decomposition)?;
-        let eigvecs = evd.U().to_owned();
-        // Rounding can make the smallest eigenvalues of a singular Gram matrix slightly negative.
-        let eigvals: Vec<f64> = (0..n).map(|k| evd.S()[k].max(0.0)).collect();
+        let (eigvecs, eigvals) = symmetric_eigen(&gram)?;
         let mut projected = Mat::<f64>::zeros(n, y.ncols());
         matmul(projected.as_mut(), Accum::Replace, eigvecs.transpose(), xty.as_ref(), 1.0, Par::Seq);
         Ok(RidgePath { eigvecs, eigvals, projected, x_mean, y_mean, n_samples: x.nrows() })
@@ -155,6 +152,30 @@ impl RidgePath {
         }
         Ok(Readout { n_features: n, weights, bias })
     }
+}
+
+/// Eigendecomposition of a symmetric matrix, sequential on purpose: faer's
+/// convenience method follows the global thread count, and the result must not.
+fn symmetric_eigen(a: &Mat<f64>) -> Result<(Mat<f64>, Vec<f64>)> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{self, ComputeEigenvectors};
+    let n = a.nrows();
+    let mut s = faer::diag::Diag::<f64>::zeros(n);
+    let mut u = Mat::<f64>::zeros(n, n);
+    let par = Par::Seq;
+    let scratch = evd::self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, par, Default::default());
+    evd::self_adjoint_evd(
+        a.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        par,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+        Default::default(),
+    )
+    .map_err(|_| Error::Decomposition)?;
+    let s = s.column_vector();
+    // Rounding can make the smallest eigenvalues of a singular Gram matrix slightly negative.
+    Ok((u, (0..n).map(|k| s[k].max(0.0)).collect()))
 }
 
 /// Ridge regression solved directly, `(X̃ᵀX̃ + λI) W = X̃ᵀỸ` by a Cholesky

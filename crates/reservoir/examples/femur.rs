@@ -35,7 +35,11 @@ fn main() {
         warmup: Sequence::outputs_only(tile(train_len, 0)),
         validation: Sequence::outputs_only(tile(500, train_len)),
     };
-    let settings = TrainSettings::wyffels_schrauwen_2009();
+    let mut settings = TrainSettings::wyffels_schrauwen_2009();
+    if let Some(top) = args.get(3) {
+        let top: f64 = top.parse().unwrap();
+        settings.penalties = cpg_regression::PenaltyGrid::log10_range(top, 0.1, top - 9.0).unwrap();
+    }
     let t0 = std::time::Instant::now();
     let tr = train(&res, &data, &settings).unwrap();
     println!(

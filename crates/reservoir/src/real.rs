@@ -53,8 +53,10 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn tanh_det(self) -> f32 {
-        // tanh(9) rounds to 1 in f32; clamping keeps 2^k in range.
-        let a = self.abs().min(9.0);
+        // tanh(10) rounds to 1 in f32; clamping keeps 2^k in range.
+        let a = self.abs();
+        // Not `min`: a NaN must stay NaN so that divergence is detected.
+        let a = if a > 10.0 { 10.0 } else { a };
         let y = 2.0 * a;
         // k = round(y / ln 2) with the 1.5·2^23 trick (round to nearest even, vectorisable).
         let k = (y * std::f32::consts::LOG2_E + 12_582_912.0) - 12_582_912.0;
@@ -87,7 +89,8 @@ impl Real for f64 {
     #[inline(always)]
     fn tanh_det(self) -> f64 {
         // tanh(19.1) = 1 − 5e-17 rounds to 1 in f64.
-        let a = self.abs().min(19.1);
+        let a = self.abs();
+        let a = if a > 19.1 { 19.1 } else { a };
         let y = 2.0 * a;
         let k = (y * std::f64::consts::LOG2_E + 6_755_399_441_055_744.0) - 6_755_399_441_055_744.0;
         let r = (y - k * 6.931_471_803_691_238e-1) - k * 1.908_214_929_270_587_7e-10;
@@ -141,5 +144,6 @@ mod tests {
         assert_eq!(f64::tanh_det(-50.0), -1.0);
         assert_eq!(f32::tanh_det(1e30), 1.0);
         assert!(f64::tanh_det(f64::NAN).is_nan());
+        assert!(f32::tanh_det(f32::NAN).is_nan());
     }
 }

@@ -62,7 +62,9 @@ impl Reservoir {
                 if connected { v } else { 0.0 }
             })
             .collect();
-        let raw = spectral_radius(&w, n)?;
+        // Rounded to 9 decimals: eigenvalue routines on different instruction
+        // sets may disagree in the last bits, and W must not.
+        let raw = (spectral_radius(&w, n)? * 1e9).round() / 1e9;
         if raw <= 0.0 {
             return Err(Error::ZeroRadius);
         }

@@ -11,6 +11,7 @@ use crate::config::Precision;
 use crate::engine::{Engine, ReadoutR};
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
+use crate::real::Real;
 use crate::reservoir::{Reservoir, rng};
 
 /// Signals over time: outputs (`T × D`) and control inputs (`T × U`), frame-major.
@@ -144,6 +145,31 @@ pub struct Training {
     pub start_state: Vec<f64>,
     /// One-step (teacher-forced) NMSE of the chosen readout on the training states.
     pub train_nmse: f64,
+}
+
+/// Runs `seq` through the reservoir by teacher forcing from the state `x0`
+/// (length N) and returns the state after each sample, frame-major (`T × N`).
+pub fn teacher_forced_states(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) -> Result<Vec<f64>> {
+    match reservoir.config().precision {
+        Precision::F32 => states_in::<f32>(reservoir, x0, seq),
+        Precision::F64 => states_in::<f64>(reservoir, x0, seq),
+    }
+}
+
+fn states_in<R: SimdDot>(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) -> Result<Vec<f64>> {
+    let engine = Engine::<R>::new(reservoir);
+    let t = seq.check("sequence", engine.d, engine.u)?;
+    if x0.len() != engine.n {
+        return Err(Error::Shape(format!(
+            "start state has {} values, the reservoir has {} neurons",
+            x0.len(),
+            engine.n
+        )));
+    }
+    let mut x: Vec<R> = x0.iter().map(|&v| R::from_f64(v)).collect();
+    let mut out = Vec::with_capacity(t * engine.n);
+    engine.teacher_force(&mut x, &seq.outputs, &seq.controls, |_, s| out.extend(s.iter().map(|v| v.to_f64())));
+    Ok(out)
 }
 
 /// Trains the readout of `reservoir` on `data`: harvest, all penalties from

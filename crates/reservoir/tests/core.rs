@@ -1,0 +1,264 @@
+//! The reservoir against its definition: construction, dynamics, training,
+//! generation, determinism and model files.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // integration tests fail loudly
+
+use cpg_mocap::cycle::{estimate_period, half_range};
+use cpg_regression::PenaltyGrid;
+use cpg_reservoir::*;
+
+fn config(n: usize) -> ReservoirConfig {
+    ReservoirConfig { n_neurons: n, ..ReservoirConfig::wyffels_schrauwen_2009() }
+}
+
+/// Jaeger's classic task, y[k] = A·sin(k/4) (period 8π ≈ 25.13 steps), with
+/// A = 1.5 so that the signal has the scale of the z-scored data the paper's
+/// feedback (±0.05) and validation noise (variance 0.001) are tuned for.
+const AMP: f64 = 1.5;
+fn sine(len: usize, offset: usize) -> Vec<f64> {
+    (offset..offset + len).map(|k| AMP * (k as f64 / 4.0).sin()).collect()
+}
+
+fn sine_data() -> TrainingData {
+    TrainingData {
+        train: Sequence::outputs_only(sine(1200, 0)),
+        warmup: Sequence::outputs_only(sine(1200, 0)),
+        validation: Sequence::outputs_only(sine(300, 1200)),
+    }
+}
+
+fn quick_settings() -> TrainSettings {
+    TrainSettings {
+        washout: 200,
+        penalties: PenaltyGrid::log10_range(1.0, 0.5, -8.0).unwrap(),
+        noise_variance: 1e-3,
+        n_noise_draws: 2,
+        noise_seed: 7,
+    }
+}
+
+fn sine_model(n: usize, seed: u64, precision: Precision) -> TrainedCpg {
+    let cfg = ReservoirConfig { precision, ..config(n) }.check().unwrap();
+    let res = Reservoir::new(&cfg, seed).unwrap();
+    let settings = quick_settings();
+    let tr = train(&res, &sine_data(), &settings).unwrap();
+    let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
+    TrainedCpg::new(res, tr, settings, out, vec![], "0.5 sin(k/4)".into(), 1.0).unwrap()
+}
+
+#[test]
+fn rescaled_matrix_has_the_requested_spectral_radius() {
+    for (n, rho) in [(60, 1.0), (150, 0.8), (300, 1.0)] {
+        let cfg = ReservoirConfig { spectral_radius: rho, ..config(n) }.check().unwrap();
+        let r = Reservoir::new(&cfg, 3).unwrap();
+        let got = spectral_radius(r.w(), n).unwrap();
+        assert!((got - rho).abs() < 1e-9 * rho, "n {n}: radius {got}, wanted {rho}");
+        if n == 300 {
+            // 50 % connectivity of N(0,1) weights: the raw radius is about sqrt(N/2)
+            // (circular law; small N fluctuate more, so only the largest is checked).
+            let expect = (n as f64 * 0.5).sqrt();
+            assert!((r.raw_spectral_radius() / expect - 1.0).abs() < 0.1, "raw radius {}", r.raw_spectral_radius());
+        }
+    }
+}
+
+#[test]
+fn weights_follow_the_config() {
+    let mut c = config(400);
+    c.feedback = Coupling { fraction: 0.65, scale: 0.11 };
+    c.inputs = vec![Coupling { fraction: 0.25, scale: 0.2 }];
+    let r = Reservoir::new(&c.clone().check().unwrap(), 5).unwrap();
+    let nonzero = r.w().iter().filter(|v| **v != 0.0).count() as f64 / (400.0 * 400.0);
+    assert!((nonzero - 0.5).abs() < 0.01, "connectivity {nonzero}");
+    assert!(r.w_feedback().iter().all(|v| *v == 0.0 || v.abs() == 0.11));
+    let fb = r.w_feedback().iter().filter(|v| **v != 0.0).count() as f64 / 400.0;
+    assert!((fb - 0.65).abs() < 0.08, "feedback fraction {fb}");
+    let inp = r.w_input().iter().filter(|v| **v != 0.0).count() as f64 / 400.0;
+    assert!((inp - 0.25).abs() < 0.07, "input fraction {inp}");
+    assert!(r.bias().iter().all(|b| (0.0..=0.1).contains(b)));
+    // An extra control input leaves W, feedback and bias unchanged (separate random streams).
+    let plain = Reservoir::new(&config(400).check().unwrap(), 5).unwrap();
+    assert_eq!(plain.w(), r.w());
+    assert_eq!(plain.bias(), r.bias());
+    // Same seed, same weights; another seed, other weights.
+    assert_eq!(Reservoir::new(&config(400).check().unwrap(), 5).unwrap(), plain);
+    assert_ne!(Reservoir::new(&config(400).check().unwrap(), 6).unwrap().w(), plain.w());
+}
+
+#[test]
+fn config_errors_name_the_field() {
+    let e = ReservoirConfig { leak_rate: 1.5, ..config(10) }.check().unwrap_err();
+    assert_eq!(e.field, "leak_rate");
+    let mut c = config(10);
+    c.inputs = vec![Coupling { fraction: 0.5, scale: 0.2 }, Coupling { fraction: 0.5, scale: f64::NAN }];
+    let e = c.check().unwrap_err();
+    assert_eq!(e.field, "inputs[1].scale");
+    assert!(e.to_string().contains("inputs[1].scale"), "{e}");
+    assert_eq!(ReservoirConfig { n_neurons: 0, ..config(10) }.check().unwrap_err().field, "n_neurons");
+    assert_eq!(ReservoirConfig { connectivity: 0.0, ..config(10) }.check().unwrap_err().field, "connectivity");
+    assert_eq!(ReservoirConfig { bias_range: [0.2, 0.1], ..config(10) }.check().unwrap_err().field, "bias_range");
+    assert_eq!(ReservoirConfig { spectral_radius: -1.0, ..config(10) }.check().unwrap_err().field, "spectral_radius");
+}
+
+#[test]
+fn echo_state_property_two_states_converge() {
+    let r = Reservoir::new(&config(300).check().unwrap(), 11).unwrap();
+    let seq = Sequence::outputs_only(sine(1500, 0));
+    let a: Vec<f64> = (0..300).map(|i| ((i * 37 % 100) as f64 / 50.0 - 1.0) * 0.9).collect();
+    let b: Vec<f64> = a.iter().map(|v| -v).collect();
+    let sa = teacher_forced_states(&r, &a, &seq).unwrap();
+    let sb = teacher_forced_states(&r, &b, &seq).unwrap();
+    let dist = |k: usize| -> f64 {
+        sa[k * 300..(k + 1) * 300]
+            .iter()
+            .zip(&sb[k * 300..(k + 1) * 300])
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (d0, d_end) = (dist(0), dist(1499));
+    assert!(d0 > 1.0, "start distance {d0}");
+    assert!(d_end < 1e-4 * d0, "states did not converge: {d0} → {d_end}");
+}
+
+#[test]
+fn sine_free_run_keeps_period_and_amplitude_for_100k_steps() {
+    for precision in [Precision::F32, Precision::F64] {
+        // Validation noise variance 1e-6: the paper's 1e-3 selects so strong a
+        // penalty that the amplitude settles 14 % low on this task (see the
+        // experiments report); the period holds either way.
+        let cfg = ReservoirConfig { precision, ..config(200) }.check().unwrap();
+        let res = Reservoir::new(&cfg, 1).unwrap();
+        let settings = TrainSettings { noise_variance: 1e-6, ..quick_settings() };
+        let tr = train(&res, &sine_data(), &settings).unwrap();
+        let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
+        let m = TrainedCpg::new(res, tr, settings, out, vec![], String::new(), 1.0).unwrap();
+        let mut g = Generator::new(&m);
+        let mut last = Vec::with_capacity(2000);
+        for k in 0..100_000 {
+            let y = g.step(&[]).unwrap()[0];
+            if k >= 98_000 {
+                last.push(y);
+            }
+        }
+        let period = estimate_period(&last, 15, 40).unwrap();
+        let want = 8.0 * std::f64::consts::PI;
+        assert!((period / want - 1.0).abs() < 0.01, "{precision:?}: period {period} vs {want}");
+        let amp = half_range(&last);
+        eprintln!(
+            "{precision:?}: period {period:.3}, amplitude {amp:.4}, chosen penalty {:e}",
+            m.provenance.chosen_penalty
+        );
+        assert!((amp / AMP - 1.0).abs() < 0.05, "{precision:?}: amplitude {amp} vs {AMP}");
+    }
+}
+
+#[test]
+fn training_is_identical_with_one_and_two_threads() {
+    let cfg = config(120).check().unwrap();
+    let res = Reservoir::new(&cfg, 9).unwrap();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| train(&res, &sine_data(), &quick_settings()).unwrap())
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one, two);
+    let bits = |t: &Training| t.readout.weights.iter().map(|w| w.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&one), bits(&two));
+    // And the generator gives the same bits from both.
+    let make = |t: Training| {
+        TrainedCpg::new(
+            res.clone(),
+            t,
+            quick_settings(),
+            vec![OutputChannel { name: "y".into(), mean: 0.0, std: 1.0 }],
+            vec![],
+            String::new(),
+            1.0,
+        )
+        .unwrap()
+    };
+    let (ma, mb) = (make(one), make(two));
+    let (mut ga, mut gb) = (Generator::new(&ma), Generator::new(&mb));
+    for _ in 0..1000 {
+        assert_eq!(ga.step(&[]).unwrap()[0].to_bits(), gb.step(&[]).unwrap()[0].to_bits());
+    }
+}
+
+#[test]
+fn validation_curve_covers_the_grid_and_the_choice_is_its_minimum() {
+    let m = sine_model(80, 2, Precision::F32);
+    let curve = &m.provenance.validation_curve;
+    assert_eq!(curve.len(), quick_settings().penalties.len());
+    let best = curve.iter().map(|p| p.nmse).fold(f64::INFINITY, f64::min);
+    let chosen = curve.iter().find(|p| p.penalty == m.provenance.chosen_penalty).unwrap();
+    assert_eq!(chosen.nmse, best);
+    assert!(curve.iter().all(|p| p.nmse_per_draw.len() == 2));
+}
+
+#[test]
+fn generator_rejects_bad_controls_without_touching_the_state() {
+    let mut c = config(50);
+    c.inputs = vec![Coupling { fraction: 0.5, scale: 0.2 }];
+    let res = Reservoir::new(&c.check().unwrap(), 4).unwrap();
+    let mut data = sine_data();
+    for s in [&mut data.train, &mut data.warmup, &mut data.validation] {
+        s.controls = vec![1.0; s.outputs.len()];
+    }
+    let tr = train(&res, &data, &quick_settings()).unwrap();
+    let m = TrainedCpg::new(
+        res,
+        tr,
+        quick_settings(),
+        vec![OutputChannel { name: "y".into(), mean: 1.0, std: 2.0 }],
+        vec!["u".into()],
+        String::new(),
+        1.0,
+    )
+    .unwrap();
+    let mut a = Generator::new(&m);
+    let mut b = Generator::new(&m);
+    assert!(matches!(a.step(&[f64::NAN]), Err(Error::NonFiniteInput { .. })));
+    assert!(matches!(a.step(&[]), Err(Error::Shape(_))));
+    for _ in 0..50 {
+        assert_eq!(a.step(&[1.0]).unwrap()[0], b.step(&[1.0]).unwrap()[0]);
+    }
+    // Outputs come back in training units: normalised · std + mean.
+    let y = a.step(&[1.0]).unwrap()[0];
+    assert_eq!(y, a.normalised_output()[0] * 2.0 + 1.0);
+    // A control far outside training drives the state into saturation, never to NaN.
+    for _ in 0..100 {
+        assert!(a.step(&[1e30]).unwrap()[0].is_finite());
+    }
+}
+
+#[test]
+fn model_file_round_trip_and_every_kind_of_damage() {
+    let m = sine_model(40, 3, Precision::F32);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.cpg");
+    m.save(&path).unwrap();
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
+    assert_eq!(TrainedCpg::load(&path).unwrap(), m);
+    let bytes = std::fs::read(&path).unwrap();
+    let reason = |b: &[u8]| match TrainedCpg::from_bytes(b, &path) {
+        Err(Error::ModelFile { reason, .. }) => reason,
+        other => panic!("expected a model-file error, got {other:?}"),
+    };
+    assert!(reason(&bytes[..bytes.len() / 2]).contains("truncated"));
+    assert!(reason(&bytes[..20]).contains("truncated"));
+    assert!(reason(b"").contains("not a cpg model file"));
+    let random: Vec<u8> = (0..5000u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    assert!(reason(&random).contains("not a cpg model file"));
+    let mut flipped = bytes.clone();
+    let k = flipped.len() - 100;
+    flipped[k] ^= 0x04;
+    assert!(reason(&flipped).contains("checksum"));
+    let mut other_version = bytes.clone();
+    other_version[8] = 2;
+    assert!(reason(&other_version).contains("format version 2"));
+    let mut padded = bytes.clone();
+    padded.push(0);
+    assert!(reason(&padded).contains("padded"));
+    assert!(matches!(TrainedCpg::load(&dir.path().join("missing.cpg")), Err(Error::Io { .. })));
+}
