@@ -36,7 +36,7 @@ fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
 const RULES: &[(&str, &[&str])] = &[
     ("cpg-mocap", &["faer", "rayon", "nalgebra", "anyhow", "cpg-reservoir", "cpg-regression", "cpg-hoap2", "cpg-cli"]),
     ("cpg-regression", &["cpg-reservoir", "cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
-    ("cpg-reservoir", &["cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-reservoir", &["cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
     ("cpg-hoap2", &["cpg-reservoir", "cpg-regression", "cpg-cli", "anyhow", "faer", "rayon"]),
 ];
 

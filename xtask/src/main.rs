@@ -1,7 +1,9 @@
 //! Project automation: `cargo xtask <command>`. Runs optimised (see
 //! `.cargo/config.toml`), so training and evaluation never run in a debug build.
 
+mod bench;
 mod ci;
+mod experiments;
 mod fetch;
 mod fuzz;
 
@@ -36,6 +38,12 @@ enum Command {
         #[arg(trailing_var_arg = true)]
         args: Vec<String>,
     },
+    /// Train an experiment's CPG and save it under models/ (E1 so far: the
+    /// left femur of 35_01), then check it in a 900 s free run.
+    Train(experiments::TrainArgs),
+    /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
+    /// training, each beside a measured floor, and f32 against f64 accuracy.
+    Bench,
     /// Run the coverage-guided fuzz targets of the parsers for a bounded time.
     ///
     /// Needs cargo-fuzz (installed from crates.io when missing) and uses the
@@ -54,6 +62,8 @@ fn main() -> std::process::ExitCode {
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
         Command::Fuzz { seconds } => fuzz::run(seconds),
+        Command::Bench => bench::run(),
+        Command::Train(args) => experiments::run_train(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

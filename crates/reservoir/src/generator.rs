@@ -162,10 +162,10 @@ impl Generator {
         if let Some(k) = control.iter().position(|v| !v.is_finite()) {
             return Err(Error::NonFiniteInput { what: "control", sample: self.steps as usize, column: k });
         }
-        if let Some(c) = clamp {
-            if c.len() != self.out.len() || c.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Shape(format!("clamp needs {} finite values", self.out.len())));
-            }
+        if let Some(c) = clamp
+            && (c.len() != self.out.len() || c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(Error::Shape(format!("clamp needs {} finite values", self.out.len())));
         }
         let noise = self.noise.as_mut().map(|(g, s)| (g, *s));
         let ok = match &mut self.inner {

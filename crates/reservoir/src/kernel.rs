@@ -106,7 +106,10 @@ macro_rules! simd_dot {
                 let lanes = S::$n_lanes;
                 let n_vec = n / lanes;
 
-                /// Columns `c..c+Q`, row vectors `v..v+B`: Q·B accumulators in registers.
+                /// Columns `c..c+Q`, row vectors `v..v+B`, terms `j0..j1`: Q·B
+                /// accumulators in registers. The running sums start at 0 when
+                /// `j0 == 0` and otherwise continue from `out`, so tiling over `j`
+                /// leaves every element's sequence of additions unchanged.
                 #[inline(always)]
                 fn block<S: Simd, const Q: usize, const B: usize>(
                     simd: S,
@@ -114,14 +117,21 @@ macro_rules! simd_dot {
                     n: usize,
                     xs: &[$t],
                     out: &mut [$t],
-                    c: usize,
-                    v: usize,
+                    (c, v): (usize, usize),
+                    (j0, j1): (usize, usize),
                 ) {
                     let lanes = S::$n_lanes;
                     let z = simd.$splat(0.0);
                     let mut acc = [[z; B]; Q];
+                    if j0 > 0 {
+                        for q in 0..Q {
+                            let src = &out[(c + q) * n + v * lanes..(c + q) * n + (v + B) * lanes];
+                            let (sv, _) = S::$as_simd(src);
+                            acc[q].copy_from_slice(&sv[..B]);
+                        }
+                    }
                     let x: [&[$t]; Q] = core::array::from_fn(|q| &xs[(c + q) * n..(c + q + 1) * n]);
-                    for j in 0..n {
+                    for j in j0..j1 {
                         let base = j * n + v * lanes;
                         let (col, _) = S::$as_simd(&wt[base..base + B * lanes]);
                         let col: &[S::$v; B] = col.try_into().unwrap_or_else(|_| unreachable!());
@@ -138,34 +148,42 @@ macro_rules! simd_dot {
                     }
                 }
 
-                let mut c = 0;
-                while c + 4 <= n_cols {
-                    let mut v = 0;
-                    while v + 2 <= n_vec {
-                        block::<S, 4, 2>(simd, wt, n, xs, out, c, v);
-                        v += 2;
+                // Tiles of W columns small enough to stay in cache while every
+                // row block passes over them (one tile when W itself fits).
+                let tile = if n * n * core::mem::size_of::<$t>() <= 512 * 1024 { n } else { 64 };
+                let mut j0 = 0;
+                while j0 < n {
+                    let j = (j0, (j0 + tile).min(n));
+                    let mut c = 0;
+                    while c + 4 <= n_cols {
+                        let mut v = 0;
+                        while v + 2 <= n_vec {
+                            block::<S, 4, 2>(simd, wt, n, xs, out, (c, v), j);
+                            v += 2;
+                        }
+                        while v < n_vec {
+                            block::<S, 4, 1>(simd, wt, n, xs, out, (c, v), j);
+                            v += 1;
+                        }
+                        c += 4;
                     }
-                    while v < n_vec {
-                        block::<S, 4, 1>(simd, wt, n, xs, out, c, v);
-                        v += 1;
+                    while c < n_cols {
+                        let mut v = 0;
+                        while v + 8 <= n_vec {
+                            block::<S, 1, 8>(simd, wt, n, xs, out, (c, v), j);
+                            v += 8;
+                        }
+                        while v + 2 <= n_vec {
+                            block::<S, 1, 2>(simd, wt, n, xs, out, (c, v), j);
+                            v += 2;
+                        }
+                        while v < n_vec {
+                            block::<S, 1, 1>(simd, wt, n, xs, out, (c, v), j);
+                            v += 1;
+                        }
+                        c += 1;
                     }
-                    c += 4;
-                }
-                while c < n_cols {
-                    let mut v = 0;
-                    while v + 8 <= n_vec {
-                        block::<S, 1, 8>(simd, wt, n, xs, out, c, v);
-                        v += 8;
-                    }
-                    while v + 2 <= n_vec {
-                        block::<S, 1, 2>(simd, wt, n, xs, out, c, v);
-                        v += 2;
-                    }
-                    while v < n_vec {
-                        block::<S, 1, 1>(simd, wt, n, xs, out, c, v);
-                        v += 1;
-                    }
-                    c += 1;
+                    j0 = j.1;
                 }
                 // Rows past the last full vector: the same sums, one element at a time.
                 for c in 0..n_cols {
@@ -229,7 +247,7 @@ mod tests {
 
     #[test]
     fn batched_columns_equal_single_dot_products_bit_for_bit() {
-        for n in [1, 7, 8, 13, 64, 301] {
+        for n in [1, 7, 8, 13, 64, 301, 390] {
             let w: Vec<f32> = (0..n * n).map(|k| ((k * 7919 % 1000) as f32 - 500.0) / 377.0).collect();
             for n_cols in [1, 3, 4, 5, 9] {
                 let xs: Vec<f32> = (0..n * n_cols).map(|k| ((k * 104_729 % 997) as f32 - 498.0) / 211.0).collect();
@@ -251,6 +269,25 @@ mod tests {
                         assert_eq!(scalar[c * n + i].to_bits(), s.to_bits(), "scalar path, n {n}");
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn tiled_f64_product_is_the_sequential_sum() {
+        // 260² f64 = 540 KB: above the tiling threshold.
+        let n = 260;
+        let w: Vec<f64> = (0..n * n).map(|k| ((k * 7919 % 1000) as f64 - 500.0) / 377.0).collect();
+        let xs: Vec<f64> = (0..n * 5).map(|k| ((k * 104_729 % 997) as f64 - 498.0) / 211.0).collect();
+        let mut out = vec![0.0; n * 5];
+        matmul(&w, n, &xs, &mut out);
+        for c in 0..5 {
+            for i in 0..n {
+                let mut s = 0.0f64;
+                for j in 0..n {
+                    s += w[j * n + i] * xs[c * n + j];
+                }
+                assert_eq!(out[c * n + i].to_bits(), s.to_bits(), "col {c}, row {i}");
             }
         }
     }

@@ -41,4 +41,7 @@ pub use generator::Generator;
 pub use model::{FORMAT_VERSION, MAGIC, OutputChannel, Provenance, TrainedCpg};
 pub use real::Real;
 pub use reservoir::{Reservoir, spectral_radius};
-pub use train::{Sequence, TrainSettings, Training, TrainingData, ValidationPoint, teacher_forced_states, train};
+pub use train::{
+    Harvest, Sequence, TrainSettings, Training, TrainingData, ValidationPoint, harvest, teacher_forced_states, train,
+    validate,
+};

@@ -11,7 +11,6 @@ use crate::config::Precision;
 use crate::engine::{Engine, ReadoutR};
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
-use crate::real::Real;
 use crate::reservoir::{Reservoir, rng};
 
 /// Signals over time: outputs (`T × D`) and control inputs (`T × U`), frame-major.
@@ -183,37 +182,95 @@ pub fn train(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSetting
     }
 }
 
-fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
-    let engine = Engine::<R>::new(reservoir);
-    let (n, d, u) = (engine.n, engine.d, engine.u);
-    let t = data.train.check("training sequence", d, u)?;
-    data.warmup.check("warm-up sequence", d, u)?;
-    let steps = data.validation.check("validation sequence", d, u)?;
-    settings.check(t)?;
-    if steps == 0 {
-        return Err(Error::Settings("the validation sequence is empty".into()));
-    }
+/// Teacher-forced states and their targets, washout removed: row `i` of
+/// `states` (the state after feeding sample `washout + i`) should predict row
+/// `i` of `targets` (sample `washout + i + 1`).
+#[derive(Debug, Clone)]
+pub struct Harvest {
+    /// `rows × N` states.
+    pub states: Mat<f64>,
+    /// `rows × D` targets.
+    pub targets: Mat<f64>,
+}
 
-    // Harvest: the state after feeding sample k predicts sample k + 1.
-    let rows = t - 1 - settings.washout;
+/// Harvests the training states of `seq` by teacher forcing from the zero state.
+pub fn harvest(reservoir: &Reservoir, seq: &Sequence, washout: usize) -> Result<Harvest> {
+    match reservoir.config().precision {
+        Precision::F32 => harvest_in::<f32>(&Engine::new(reservoir), seq, washout),
+        Precision::F64 => harvest_in::<f64>(&Engine::new(reservoir), seq, washout),
+    }
+}
+
+fn harvest_in<R: SimdDot>(engine: &Engine<R>, seq: &Sequence, washout: usize) -> Result<Harvest> {
+    let (n, d, u) = (engine.n, engine.d, engine.u);
+    let t = seq.check("training sequence", d, u)?;
+    if washout + 2 > t {
+        return Err(Error::Settings(format!(
+            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
+        )));
+    }
+    let rows = t - 1 - washout;
     let mut states = Mat::<f64>::zeros(rows, n);
     let mut x = vec![R::ZERO; n];
-    engine.teacher_force(&mut x, &data.train.outputs[..(t - 1) * d], &data.train.controls[..(t - 1) * u], |k, s| {
-        if k >= settings.washout {
+    engine.teacher_force(&mut x, &seq.outputs[..(t - 1) * d], &seq.controls[..(t - 1) * u], |k, s| {
+        if k >= washout {
             for (j, v) in s.iter().enumerate() {
-                states[(k - settings.washout, j)] = v.to_f64();
+                states[(k - washout, j)] = v.to_f64();
             }
         }
     });
-    let targets = Mat::from_fn(rows, d, |i, j| data.train.outputs[(i + settings.washout + 1) * d + j]);
-    let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
-    let grid = &settings.penalties;
-    let readouts: Vec<Readout> = sweep(grid, |_, p| path.solve(p)).into_iter().collect::<Result<_, _>>()?;
-    let readouts_r: Vec<ReadoutR<R>> = readouts.iter().map(ReadoutR::new).collect();
+    let targets = Mat::from_fn(rows, d, |i, j| seq.outputs[(i + washout + 1) * d + j]);
+    Ok(Harvest { states, targets })
+}
 
-    // Validation start state.
+/// Scores candidate readouts: each runs freely from the state reached by
+/// teacher-forcing `warmup`, with the settings' state noise, over
+/// `validation`; the score is the NMSE against `validation.outputs`,
+/// averaged over the noise draws (the same draws for every candidate). All
+/// candidates and draws advance together in batches spread over the cores.
+/// Returns the scores in candidate order and the start state.
+pub fn validate(
+    reservoir: &Reservoir,
+    readouts: &[Readout],
+    warmup: &Sequence,
+    validation: &Sequence,
+    settings: &TrainSettings,
+) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
+    match reservoir.config().precision {
+        Precision::F32 => validate_in::<f32>(&Engine::new(reservoir), readouts, warmup, validation, settings),
+        Precision::F64 => validate_in::<f64>(&Engine::new(reservoir), readouts, warmup, validation, settings),
+    }
+}
+
+fn validate_in<R: SimdDot>(
+    engine: &Engine<R>,
+    readouts: &[Readout],
+    warmup: &Sequence,
+    validation: &Sequence,
+    settings: &TrainSettings,
+) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
+    let (n, d, u) = (engine.n, engine.d, engine.u);
+    warmup.check("warm-up sequence", d, u)?;
+    let steps = validation.check("validation sequence", d, u)?;
+    if steps == 0 {
+        return Err(Error::Settings("the validation sequence is empty".into()));
+    }
+    if let Some(r) = readouts.iter().find(|r| r.n_features != n || r.bias.len() != d || r.weights.len() != n * d) {
+        return Err(Error::Shape(format!(
+            "a readout is {}×{}, the reservoir needs {d}×{n}",
+            r.bias.len(),
+            r.n_features
+        )));
+    }
+    if !(settings.noise_variance.is_finite() && settings.noise_variance >= 0.0) || settings.n_noise_draws == 0 {
+        return Err(Error::Settings(format!(
+            "noise variance {} must be >= 0 and draws {} >= 1",
+            settings.noise_variance, settings.n_noise_draws
+        )));
+    }
+    let readouts_r: Vec<ReadoutR<R>> = readouts.iter().map(ReadoutR::new).collect();
     let mut x0 = vec![R::ZERO; n];
-    engine.teacher_force(&mut x0, &data.warmup.outputs, &data.warmup.controls, |_, _| {});
+    engine.teacher_force(&mut x0, &warmup.outputs, &warmup.controls, |_, _| {});
 
     // Common random numbers: draw r is the same sequence for every candidate.
     let sigma = settings.noise_variance.sqrt();
@@ -225,34 +282,49 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
         .collect();
     let var: Vec<f64> = (0..d)
         .map(|j| {
-            let col: Vec<f64> = data.validation.outputs.iter().skip(j).step_by(d).copied().collect();
+            let col: Vec<f64> = validation.outputs.iter().skip(j).step_by(d).copied().collect();
             let m = col.iter().sum::<f64>() / steps as f64;
             (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / steps as f64).max(f64::MIN_POSITIVE)
         })
         .collect();
     let draws = settings.n_noise_draws;
-    let n_cols = grid.len() * draws;
+    let n_cols = readouts.len() * draws;
     let chunk = n_cols.div_ceil(rayon::current_num_threads()).div_ceil(4) * 4;
     let column_nmse: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
         let rs: Vec<&ReadoutR<R>> = cols.clone().map(|c| &readouts_r[c / draws]).collect();
         let zs: Vec<Option<&[R]>> = cols.clone().map(|c| (sigma > 0.0).then(|| noises[c % draws].as_slice())).collect();
         engine
-            .free_run_batch(&x0, &rs, &zs, &data.validation.outputs, &data.validation.controls)
+            .free_run_batch(&x0, &rs, &zs, &validation.outputs, &validation.controls)
             .into_iter()
             .map(|sse| sse.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
             .collect()
     });
-    let curve: Vec<ValidationPoint> = grid
-        .values()
+    let curve = readouts
         .iter()
         .enumerate()
-        .map(|(i, &penalty)| {
+        .map(|(i, _)| {
             let per: Vec<f64> = column_nmse[i * draws..(i + 1) * draws].to_vec();
             let nmse =
                 if per.iter().all(|v| v.is_finite()) { per.iter().sum::<f64>() / draws as f64 } else { f64::INFINITY };
-            ValidationPoint { penalty, nmse, nmse_per_draw: per }
+            ValidationPoint { penalty: f64::NAN, nmse, nmse_per_draw: per }
         })
         .collect();
+    Ok((curve, x0.iter().map(|v| v.to_f64()).collect()))
+}
+
+fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
+    let engine = Engine::<R>::new(reservoir);
+    let t = data.train.check("training sequence", engine.d, engine.u)?;
+    settings.check(t)?;
+    let Harvest { states, targets } = harvest_in(&engine, &data.train, settings.washout)?;
+    let (rows, n, d) = (states.nrows(), engine.n, engine.d);
+    let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
+    let grid = &settings.penalties;
+    let readouts: Vec<Readout> = sweep(grid, |_, p| path.solve(p)).into_iter().collect::<Result<_, _>>()?;
+    let (mut curve, x0) = validate_in(&engine, &readouts, &data.warmup, &data.validation, settings)?;
+    for (p, &penalty) in curve.iter_mut().zip(grid.values()) {
+        p.penalty = penalty;
+    }
     let chosen = (0..curve.len()).fold(0, |best, i| if curve[i].nmse < curve[best].nmse { i } else { best });
     if !curve[chosen].nmse.is_finite() {
         return Err(Error::Settings("every candidate penalty diverged in validation".into()));
@@ -279,5 +351,5 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
         }
     }
     let train_nmse = sq.iter().zip(&tv).map(|(s, v)| s / v.max(f64::MIN_POSITIVE)).sum::<f64>() / d as f64;
-    Ok(Training { readout, chosen, curve, start_state: x0.iter().map(|v| v.to_f64()).collect(), train_nmse })
+    Ok(Training { readout, chosen, curve, start_state: x0, train_nmse })
 }
