@@ -259,7 +259,7 @@ impl ChannelMap {
         values_deg: &[f64],
         rate_hz: f64,
     ) -> Result<JointTrajectory> {
-        if channels.is_empty() || values_deg.len() % channels.len() != 0 {
+        if channels.is_empty() || !values_deg.len().is_multiple_of(channels.len()) {
             return Err(Error::Input(format!(
                 "{} values do not form frames of {} channels",
                 values_deg.len(),
