@@ -161,6 +161,80 @@ pub fn align_to_cycle(model: &[f64], cycle: &[f64], n_channels: usize) -> (usize
     best
 }
 
+/// Distance of a signal to a periodic orbit, over time: for each `t ≥ window − 1`,
+/// the RMS difference between the last `window` frames of `y` and the best-
+/// matching stretch of the repeated `cycle`, divided by the cycle's standard
+/// deviation (pooled over channels). 0 means "on the orbit"; entries before the
+/// first full window are `NaN`.
+pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize) -> Vec<f64> {
+    let t = y.len() / n_channels;
+    let p = cycle.len() / n_channels;
+    let mut out = vec![f64::NAN; t];
+    if p == 0 || window == 0 || t < window {
+        return out;
+    }
+    let m = mean(cycle);
+    let var = cycle.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / cycle.len() as f64;
+    let norm = var.max(f64::MIN_POSITIVE);
+    for end in window - 1..t {
+        let start = end + 1 - window;
+        let mut best = f64::INFINITY;
+        for shift in 0..p {
+            let mut e = 0.0;
+            for k in 0..window {
+                let q = (shift + k) % p;
+                for c in 0..n_channels {
+                    let d = y[(start + k) * n_channels + c] - cycle[q * n_channels + c];
+                    e += d * d;
+                }
+                if e >= best {
+                    break;
+                }
+            }
+            best = best.min(e);
+        }
+        out[end] = (best / (window * n_channels) as f64 / norm).sqrt();
+    }
+    out
+}
+
+/// The lag (in frames, fractional) by which `b` trails `a`, searched in
+/// `−max_lag..=max_lag` by the peak of their cross-correlation, refined by a
+/// parabola. Both are single-channel signals of the same length.
+pub fn lag(a: &[f64], b: &[f64], max_lag: usize) -> f64 {
+    let n = a.len().min(b.len());
+    let (ma, mb) = (mean(&a[..n]), mean(&b[..n]));
+    // Mean product over the overlap, so that long lags are not penalised.
+    let corr = |l: isize| -> f64 {
+        let (mut s, mut k) = (0.0, 0usize);
+        for i in 0..n as isize {
+            let j = i + l;
+            if j >= 0 && (j as usize) < n {
+                s += (a[i as usize] - ma) * (b[j as usize] - mb);
+                k += 1;
+            }
+        }
+        if k > 0 { s / k as f64 } else { 0.0 }
+    };
+    let m = max_lag.min(n.saturating_sub(2)) as isize;
+    let (mut best, mut best_v) = (0isize, f64::NEG_INFINITY);
+    for l in -m..=m {
+        let v = corr(l);
+        if v > best_v {
+            best = l;
+            best_v = v;
+        }
+    }
+    if best.abs() < m {
+        let (y0, y1, y2) = (corr(best - 1), best_v, corr(best + 1));
+        let den = y0 - 2.0 * y1 + y2;
+        if den < 0.0 {
+            return best as f64 + (0.5 * (y0 - y2) / den).clamp(-0.5, 0.5);
+        }
+    }
+    best as f64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -186,6 +260,22 @@ mod tests {
         assert!(l.seam_excess < 1e-9, "{l:?}");
         let two = best_loop(&x, 1, 100.0, 2).unwrap();
         assert_eq!(two.len, 200);
+    }
+
+    #[test]
+    fn orbit_distance_is_zero_on_the_orbit_and_lag_finds_the_delay() {
+        let cycle = sine(100, 100.0, 0.0);
+        let y = sine(300, 100.0, 1.0);
+        let d = orbit_distance(&y, &cycle, 1, 25);
+        assert!(d[..24].iter().all(|v| v.is_nan()));
+        assert!(d[24..].iter().all(|v| *v < 0.05), "{:?}", &d[24..30]);
+        let off: Vec<f64> = y.iter().map(|v| 0.5 * v).collect();
+        assert!(orbit_distance(&off, &cycle, 1, 25)[50] > 0.2);
+        // Over 40 periods the edge effects of the overlap average are small.
+        let a = sine(4000, 100.0, 0.0);
+        let b = sine(4000, 100.0, -2.0 * std::f64::consts::PI * 7.3 / 100.0);
+        assert!((lag(&a, &b, 30) - 7.3).abs() < 0.1, "{}", lag(&a, &b, 30));
+        assert!((lag(&b, &a, 30) + 7.3).abs() < 0.1, "{}", lag(&b, &a, 30));
     }
 
     #[test]

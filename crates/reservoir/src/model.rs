@@ -77,6 +77,9 @@ pub struct TrainedCpg {
     pub controls: Vec<String>,
     /// Provenance.
     pub provenance: Provenance,
+    /// One period of the teacher (normalised, `period × D`), when the
+    /// training signal was periodic: what stability checks compare against.
+    pub reference_cycle: Option<Vec<f64>>,
 }
 
 /// The serialisable form of a model (the payload of a file).
@@ -94,6 +97,7 @@ struct FileV1 {
     outputs: Vec<OutputChannel>,
     controls: Vec<String>,
     provenance: Provenance,
+    reference_cycle: Option<Vec<f64>>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -127,9 +131,20 @@ impl TrainedCpg {
             outputs,
             controls,
             provenance,
+            reference_cycle: None,
         };
         m.check()?;
         Ok(m)
+    }
+
+    /// Attaches one period of the (normalised) teacher, frame-major `period × D`.
+    pub fn with_reference_cycle(mut self, cycle: Vec<f64>) -> Result<TrainedCpg> {
+        let d = self.outputs.len();
+        if cycle.is_empty() || !cycle.len().is_multiple_of(d) || cycle.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Shape(format!("a reference cycle needs a whole number of finite frames of {d} values")));
+        }
+        self.reference_cycle = Some(cycle);
+        Ok(self)
     }
 
     fn check(&self) -> Result<()> {
@@ -156,6 +171,11 @@ impl TrainedCpg {
         if !finite || self.outputs.iter().any(|o| !(o.mean.is_finite() && o.std.is_finite() && o.std > 0.0)) {
             return Err(Error::Shape("non-finite readout, state or normalisation".into()));
         }
+        if let Some(c) = &self.reference_cycle
+            && (c.is_empty() || !c.len().is_multiple_of(d) || c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(Error::Shape("reference cycle is not whole finite frames".into()));
+        }
         Ok(())
     }
 
@@ -174,6 +194,7 @@ impl TrainedCpg {
             outputs: self.outputs.clone(),
             controls: self.controls.clone(),
             provenance: self.provenance.clone(),
+            reference_cycle: self.reference_cycle.clone(),
         };
         let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
             .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
@@ -233,6 +254,7 @@ impl TrainedCpg {
             outputs: f.outputs,
             controls: f.controls,
             provenance: f.provenance,
+            reference_cycle: f.reference_cycle,
         };
         m.check().map_err(|e| bad(format!("inconsistent model: {e}")))?;
         Ok(m)
