@@ -86,3 +86,133 @@ fn bad_input_gives_a_located_error_and_exit_code_2() {
     assert!(text(&o).1.contains("none.amc"));
     assert!(!dir.path().join("o.csv").exists());
 }
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn ok(o: &Output) -> String {
+    let (out, err) = text(o);
+    assert!(o.status.success(), "failed:\n{out}\n{err}");
+    out + &err
+}
+
+/// The tested example: train → generate (CSV and AMC) → hoap2 → evaluate.
+#[test]
+fn example_config_trains_generates_and_drives_hoap2() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("walk22.cpg");
+    let config = repo().join("examples/walk22.toml");
+    let log = ok(&cpg(&["train".as_ref(), "--config".as_ref(), config.as_os_str(), "-o".as_ref(), model.as_os_str()]));
+    assert!(log.contains("trained in"), "{log}");
+
+    let csv = dir.path().join("walk.csv");
+    ok(&cpg(&[
+        "generate".as_ref(),
+        "-m".as_ref(),
+        model.as_os_str(),
+        "--seconds".as_ref(),
+        "5".as_ref(),
+        "-o".as_ref(),
+        csv.as_os_str(),
+    ]));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 600, "5 s at 120 Hz");
+    assert!(lines[0].starts_with("time_s,lfemur.ry_deg,lfemur.rz_deg,lfemur.rx_deg,"), "{}", lines[0]);
+    // Hip flexion stays in a walking range (35_02: about −30…+20 degrees).
+    let col = lines[0].split(',').position(|c| c == "lfemur.rx_deg").unwrap();
+    for l in &lines[1..] {
+        let v: f64 = l.split(',').nth(col).unwrap().parse().unwrap();
+        assert!((-60.0..40.0).contains(&v), "lfemur.rx {v}");
+    }
+
+    let amc = dir.path().join("walk.amc");
+    ok(&cpg(&[
+        "generate".as_ref(),
+        "-m".as_ref(),
+        model.as_os_str(),
+        "--seconds".as_ref(),
+        "1".as_ref(),
+        "--format".as_ref(),
+        "amc".as_ref(),
+        "--skeleton".as_ref(),
+        cmu("35.asf").as_os_str(),
+        "-o".as_ref(),
+        amc.as_os_str(),
+    ]));
+    let sk = cpg_mocap::Skeleton::from_file(cmu("35.asf")).unwrap();
+    let m = cpg_mocap::Motion::from_amc_file(&amc, &sk, 120.0).unwrap();
+    assert_eq!(m.n_frames(), 120);
+    assert_eq!(m.n_channels(), 62, "every skeleton channel is written, the unlearnt ones at 0");
+
+    let joints = dir.path().join("hoap2.csv");
+    let log = ok(&cpg(&[
+        "hoap2".as_ref(),
+        "-m".as_ref(),
+        model.as_os_str(),
+        "--seconds".as_ref(),
+        "2".as_ref(),
+        "--rate-hz".as_ref(),
+        "1000".as_ref(),
+        "--urdf".as_ref(),
+        repo().join("assets/hoap2/hoap2.urdf").as_os_str(),
+        "-o".as_ref(),
+        joints.as_os_str(),
+    ]));
+    assert!(log.contains("lleg_joint_4"), "clamp table printed: {log}");
+    let text = std::fs::read_to_string(&joints).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(header.len(), 23);
+    assert_eq!(header[0], "time_s");
+    assert!(header[1..].iter().all(|h| h.ends_with("_rad")));
+    // 2 s at 120 Hz is 240 frames spanning 239/120 s; at 1 kHz that is 1992 samples.
+    assert_eq!(lines.len() - 1, 1992);
+    let robot = cpg_hoap2::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
+    for l in &lines[1..] {
+        for (h, v) in header[1..].iter().zip(l.split(',').skip(1)) {
+            let j = robot.joint(h.trim_end_matches("_rad")).unwrap();
+            let v: f64 = v.parse().unwrap();
+            assert!(v >= j.lower_rad - 1e-6 && v <= j.upper_rad + 1e-6, "{h} = {v} outside its limits");
+        }
+    }
+
+    let log = ok(&cpg(&["evaluate".as_ref(), "-m".as_ref(), model.as_os_str(), "--seconds".as_ref(), "60".as_ref()]));
+    assert!(log.contains("period at the end") && log.contains("perturbation"), "{log}");
+}
+
+#[test]
+fn config_and_model_errors_say_what_is_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    let base = std::fs::read_to_string(repo().join("examples/femur.toml")).unwrap();
+    let fix_paths = |s: String| {
+        s.replace("../data/cmu35/35.asf", &cmu("35.asf").display().to_string())
+            .replace("../data/cmu35/35_01.amc", &cmu("35_01.amc").display().to_string())
+    };
+    std::fs::write(&bad, fix_paths(base.replace("\"lfemur.rx\"", "\"lfemur.rq\""))).unwrap();
+    let o =
+        cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str(), "-o".as_ref(), dir.path().join("m.cpg").as_os_str()]);
+    let err = text(&o).1;
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err.contains("unknown channel 'lfemur.rq'") && err.contains("lfemur.rx"), "{err}");
+    std::fs::write(&bad, fix_paths(base.replace("seed = 1", "seed = 1\nleak = 0.2"))).unwrap();
+    let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;
+    assert!(err.contains("unknown field `leak`"), "{err}");
+    std::fs::write(&bad, fix_paths(base.replace("seed = 1", "seed = 1\nleak_rate = 1.5"))).unwrap();
+    let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;
+    assert!(err.contains("leak_rate") && err.contains("(0, 1]"), "{err}");
+    let junk = dir.path().join("junk.cpg");
+    std::fs::write(&junk, b"not a model").unwrap();
+    let err = text(&cpg(&[
+        "generate".as_ref(),
+        "-m".as_ref(),
+        junk.as_os_str(),
+        "-o".as_ref(),
+        dir.path().join("x.csv").as_os_str(),
+    ]))
+    .1;
+    assert!(err.contains("not a cpg model file"), "{err}");
+    assert!(!dir.path().join("x.csv").exists());
+}
