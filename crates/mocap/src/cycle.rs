@@ -176,7 +176,7 @@ pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize
     let m = mean(cycle);
     let var = cycle.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / cycle.len() as f64;
     let norm = var.max(f64::MIN_POSITIVE);
-    for end in window - 1..t {
+    for (end, slot) in out.iter_mut().enumerate().skip(window - 1) {
         let start = end + 1 - window;
         let mut best = f64::INFINITY;
         for shift in 0..p {
@@ -193,7 +193,7 @@ pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize
             }
             best = best.min(e);
         }
-        out[end] = (best / (window * n_channels) as f64 / norm).sqrt();
+        *slot = (best / (window * n_channels) as f64 / norm).sqrt();
     }
     out
 }
