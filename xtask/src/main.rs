@@ -3,8 +3,10 @@
 
 mod bench;
 mod ci;
+mod evaluate;
 mod experiments;
 mod fetch;
+mod figures;
 mod fuzz;
 
 use std::path::PathBuf;
@@ -41,6 +43,10 @@ enum Command {
     /// Train an experiment's CPG and save it under models/ (E1 so far: the
     /// left femur of 35_01), then check it in a 900 s free run.
     Train(experiments::TrainArgs),
+    /// Run every experiment of wyffels & Schrauwen (2009) and write report/:
+    /// REPORT.md (each metric beside the paper's claim), metrics.json, the
+    /// figures (PNG and SVG) and HOAP-2 joint trajectories.
+    Evaluate(evaluate::Args),
     /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
     /// training, each beside a measured floor, and f32 against f64 accuracy.
     Bench,
@@ -64,6 +70,7 @@ fn main() -> std::process::ExitCode {
         Command::Fuzz { seconds } => fuzz::run(seconds),
         Command::Bench => bench::run(),
         Command::Train(args) => experiments::run_train(&args),
+        Command::Evaluate(args) => evaluate::run_all(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use cpg_mocap::{Motion, Skeleton};
 
-use crate::output::write_atomic;
+use cpg_cli::output::write_atomic;
 
 pub fn run(amc: &Path, skeleton: &Path, output: &Path, rate_hz: f64) -> anyhow::Result<()> {
     let sk = Skeleton::from_file(skeleton)?;

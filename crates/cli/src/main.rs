@@ -1,15 +1,12 @@
 //! `cpg`: learn rhythmic motion from motion capture and play it back as a
 //! central pattern generator. This binary is glue: the work is in the library crates.
 
-mod config;
-mod evaluate;
 mod fk;
-mod generate;
 mod inspect;
-mod output;
-mod pipeline;
 mod robot;
 mod train;
+
+use cpg_cli::{evaluate, generate};
 
 use std::path::PathBuf;
 use std::process::ExitCode;

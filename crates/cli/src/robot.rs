@@ -6,8 +6,8 @@ use anyhow::{Context, bail};
 use cpg_hoap2::{ChannelMap, Robot};
 use cpg_reservoir::TrainedCpg;
 
-use crate::generate::{Controls, free_run};
-use crate::output::write_atomic;
+use cpg_cli::generate::{Controls, free_run};
+use cpg_cli::output::write_atomic;
 
 /// An asset of the project: as given, else under the workspace's assets/hoap2.
 fn asset(given: Option<&PathBuf>, name: &str) -> PathBuf {

@@ -6,8 +6,8 @@ use std::time::Instant;
 use cpg_regression::PenaltyGrid;
 use cpg_reservoir::{Reservoir, TrainSettings, TrainedCpg, train};
 
-use crate::config::Config;
-use crate::pipeline::prepare;
+use cpg_cli::config::Config;
+use cpg_cli::pipeline::prepare;
 
 pub fn run(config: &Path, output: Option<&Path>) -> anyhow::Result<()> {
     let mut c = Config::load(config)?;

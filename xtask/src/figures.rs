@@ -1,0 +1,145 @@
+//! Figures in the paper's style: teacher dashed gray, model black, controls
+//! dashed gray; every figure is written as PNG and SVG from the same drawing code.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use anyhow::{Context, bail};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::series::DashedLineSeries;
+
+/// How a curve is drawn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Look {
+    /// The data the network learnt: dashed gray.
+    Teacher,
+    /// What the network generated: solid black.
+    Model,
+    /// A control input: dashed light gray (on a secondary scale given by the caller).
+    Control,
+    /// Data shown for context: solid light gray (phase portraits).
+    Data,
+}
+
+/// One curve.
+pub struct Curve {
+    pub points: Vec<(f64, f64)>,
+    pub look: Look,
+}
+
+/// One panel of a figure.
+pub struct Panel {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub curves: Vec<Curve>,
+}
+
+const FONT_PATHS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+];
+
+/// Registers DejaVu Sans for the text of the PNG figures (pure Rust rendering;
+/// no system font library). SVG text needs no font file.
+fn font() -> anyhow::Result<()> {
+    static DONE: OnceLock<Result<(), String>> = OnceLock::new();
+    DONE.get_or_init(|| {
+        let path = FONT_PATHS.iter().find(|p| Path::new(p).is_file()).ok_or_else(|| {
+            format!(
+                "no DejaVu Sans font found (looked in {}); install Debian's fonts-dejavu-core",
+                FONT_PATHS.join(", ")
+            )
+        })?;
+        let bytes: &'static [u8] =
+            Box::leak(std::fs::read(path).map_err(|e| format!("{path}: {e}"))?.into_boxed_slice());
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+            .map_err(|_| format!("{path}: not a usable font"))
+    })
+    .clone()
+    .map_err(anyhow::Error::msg)
+}
+
+fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) =
+        v.fold(
+            (f64::INFINITY, f64::NEG_INFINITY),
+            |(a, b), x| if x.is_finite() { (a.min(x), b.max(x)) } else { (a, b) },
+        );
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-9);
+    (lo - pad, hi + pad)
+}
+
+fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panels: &[Panel], cols: usize) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let rows = panels.len().div_ceil(cols);
+    let cells = area.split_evenly((rows, cols));
+    for (panel, cell) in panels.iter().zip(cells.iter()) {
+        let (x0, x1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
+        let (y0, y1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
+        let mut chart = ChartBuilder::on(cell)
+            .caption(&panel.title, ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(48)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(panel.x_label.as_str())
+            .y_desc(panel.y_label.as_str())
+            .label_style(("sans-serif", 12))
+            .axis_desc_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        for c in &panel.curves {
+            let gray = RGBColor(128, 128, 128);
+            let light = RGBColor(185, 185, 185);
+            let res = match c.look {
+                Look::Teacher => chart
+                    .draw_series(DashedLineSeries::new(c.points.iter().copied(), 6, 4, gray.stroke_width(2)))
+                    .map(|_| ()),
+                Look::Control => chart
+                    .draw_series(DashedLineSeries::new(c.points.iter().copied(), 5, 4, light.stroke_width(2)))
+                    .map(|_| ()),
+                Look::Model => {
+                    chart.draw_series(LineSeries::new(c.points.iter().copied(), BLACK.stroke_width(1))).map(|_| ())
+                }
+                Look::Data => {
+                    chart.draw_series(LineSeries::new(c.points.iter().copied(), light.stroke_width(1))).map(|_| ())
+                }
+            };
+            res.map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        }
+    }
+    area.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+/// Draws `panels` in a grid of `cols` columns and writes `<stem>.png` and `<stem>.svg`.
+pub fn save(stem: &Path, panels: &[Panel], cols: usize, size: (u32, u32)) -> anyhow::Result<()> {
+    if panels.is_empty() || cols == 0 {
+        bail!("a figure needs panels");
+    }
+    font()?;
+    let png = stem.with_extension("png");
+    let svg = stem.with_extension("svg");
+    {
+        let area = BitMapBackend::new(&png, size).into_drawing_area();
+        draw(&area, panels, cols).with_context(|| format!("drawing {}", png.display()))?;
+    }
+    {
+        let area = SVGBackend::new(&svg, size).into_drawing_area();
+        draw(&area, panels, cols).with_context(|| format!("drawing {}", svg.display()))?;
+    }
+    Ok(())
+}
