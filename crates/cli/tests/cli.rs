@@ -216,3 +216,82 @@ fn config_and_model_errors_say_what_is_valid() {
     assert!(err.contains("not a cpg model file"), "{err}");
     assert!(!dir.path().join("x.csv").exists());
 }
+
+/// Two gaits with control inputs: a multi-segment config, `--control` and `--control-file`.
+#[test]
+fn control_inputs_from_values_and_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("gaits.toml");
+    std::fs::write(
+        &config,
+        format!(
+            r#"
+[data]
+skeleton = "{asf}"
+channels = ["lfemur.rx"]
+controls = ["u_walk", "u_run"]
+loop_cycles = 1
+samples_per_segment = 1000
+
+[[data.segments]]
+motion = "{walk}"
+controls = [1, 0]
+
+[[data.segments]]
+motion = "{run}"
+controls = [0, 1]
+
+[reservoir]
+n_neurons = 200
+
+[training]
+noise_draws = 1
+penalty_log10 = {{ start = 1, step = 1, stop = -4 }}
+
+[output]
+model = "gaits.cpg"
+"#,
+            asf = cmu("35.asf").display(),
+            walk = cmu("35_01.amc").display(),
+            run = cmu("35_17.amc").display()
+        ),
+    )
+    .unwrap();
+    ok(&cpg(&["train".as_ref(), "-c".as_ref(), config.as_os_str()]));
+    let model = dir.path().join("gaits.cpg");
+    assert!(model.is_file(), "the model lands beside the config");
+
+    let out = dir.path().join("a.csv");
+    let run = |extra: &[&std::ffi::OsStr]| {
+        let mut a: Vec<&std::ffi::OsStr> = vec![
+            "generate".as_ref(),
+            "-m".as_ref(),
+            model.as_os_str(),
+            "--seconds".as_ref(),
+            "2".as_ref(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ];
+        a.extend_from_slice(extra);
+        cpg(&a)
+    };
+    // The model has two control inputs: they must be given, two of them.
+    let o = run(&[]);
+    assert!(text(&o).1.contains("control inputs [u_walk, u_run]"), "{}", text(&o).1);
+    let o = run(&["--control".as_ref(), "1".as_ref()]);
+    assert!(text(&o).1.contains("--control has 1 values"), "{}", text(&o).1);
+    ok(&run(&["--control".as_ref(), "0,1".as_ref()]));
+    let constant = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(constant.lines().count(), 1 + 240);
+
+    let file = dir.path().join("u.csv");
+    std::fs::write(&file, "u_walk,u_run\n0,1\n").unwrap();
+    ok(&run(&["--control-file".as_ref(), file.as_os_str()]));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), constant, "a one-row file holds its values like --control");
+    std::fs::write(&file, "u_run,u_walk\n0,1\n").unwrap();
+    let o = run(&["--control-file".as_ref(), file.as_os_str()]);
+    assert!(text(&o).1.contains("u.csv:1: header [u_run, u_walk]"), "{}", text(&o).1);
+    std::fs::write(&file, "u_walk,u_run\n0,1\n0,x\n").unwrap();
+    let o = run(&["--control-file".as_ref(), file.as_os_str()]);
+    assert!(text(&o).1.contains("u.csv:3: expected 2 finite numbers"), "{}", text(&o).1);
+}
