@@ -57,6 +57,58 @@ fn column_means(m: MatRef<'_, f64>) -> Vec<f64> {
     (0..m.ncols()).map(|j| (0..m.nrows()).map(|i| m[(i, j)]).sum::<f64>() / m.nrows() as f64).collect()
 }
 
+/// The centred normal equations of a least-squares problem: `X̃ᵀX̃`, `X̃ᵀỸ`
+/// and the column means that centred it.
+struct Centred {
+    gram: Mat<f64>,
+    xty: Mat<f64>,
+    x_mean: Vec<f64>,
+    y_mean: Vec<f64>,
+}
+
+fn centred(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<Centred> {
+    if x.nrows() != y.nrows() {
+        return Err(Error::Shape(format!("{} feature rows but {} target rows", x.nrows(), y.nrows())));
+    }
+    if x.nrows() < 2 || x.ncols() == 0 || y.ncols() == 0 {
+        return Err(Error::Shape(format!(
+            "need at least 2 samples, 1 feature and 1 target; got {}×{} and {}×{}",
+            x.nrows(),
+            x.ncols(),
+            y.nrows(),
+            y.ncols()
+        )));
+    }
+    check_finite(x, "feature matrix")?;
+    check_finite(y, "target matrix")?;
+    let x_mean = column_means(x);
+    let y_mean = column_means(y);
+    let xc = Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] - x_mean[j]);
+    let yc = Mat::from_fn(y.nrows(), y.ncols(), |i, j| y[(i, j)] - y_mean[j]);
+    let n = x.ncols();
+    let mut gram = Mat::<f64>::zeros(n, n);
+    matmul(gram.as_mut(), Accum::Replace, xc.transpose(), xc.as_ref(), 1.0, Par::Seq);
+    let mut xty = Mat::<f64>::zeros(n, y.ncols());
+    matmul(xty.as_mut(), Accum::Replace, xc.transpose(), yc.as_ref(), 1.0, Par::Seq);
+    Ok(Centred { gram, xty, x_mean, y_mean })
+}
+
+/// The readout for centred weights `w` (`N × D`): the bias makes the fit exact in the mean.
+fn readout(w: MatRef<'_, f64>, x_mean: &[f64], y_mean: &[f64]) -> Readout {
+    let (n, d) = (w.nrows(), w.ncols());
+    let mut weights = Vec::with_capacity(n * d);
+    let mut bias = Vec::with_capacity(d);
+    for j in 0..d {
+        let mut b = y_mean[j];
+        for i in 0..n {
+            weights.push(w[(i, j)]);
+            b -= x_mean[i] * w[(i, j)];
+        }
+        bias.push(b);
+    }
+    Readout { n_features: n, weights, bias }
+}
+
 /// The data of a ridge problem, factorised once for every penalty.
 ///
 /// With `X̃ = X − mean(X)` and `Ỹ = Y − mean(Y)`, the Gram matrix
@@ -78,29 +130,8 @@ pub struct RidgePath {
 impl RidgePath {
     /// Factorises the problem for features `x` (`T × N`) and targets `y` (`T × D`).
     pub fn new(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<RidgePath> {
-        if x.nrows() != y.nrows() {
-            return Err(Error::Shape(format!("{} feature rows but {} target rows", x.nrows(), y.nrows())));
-        }
-        if x.nrows() < 2 || x.ncols() == 0 || y.ncols() == 0 {
-            return Err(Error::Shape(format!(
-                "need at least 2 samples, 1 feature and 1 target; got {}×{} and {}×{}",
-                x.nrows(),
-                x.ncols(),
-                y.nrows(),
-                y.ncols()
-            )));
-        }
-        check_finite(x, "feature matrix")?;
-        check_finite(y, "target matrix")?;
-        let x_mean = column_means(x);
-        let y_mean = column_means(y);
-        let xc = Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] - x_mean[j]);
-        let yc = Mat::from_fn(y.nrows(), y.ncols(), |i, j| y[(i, j)] - y_mean[j]);
+        let Centred { gram, xty, x_mean, y_mean } = centred(x, y)?;
         let n = x.ncols();
-        let mut gram = Mat::<f64>::zeros(n, n);
-        matmul(gram.as_mut(), Accum::Replace, xc.transpose(), xc.as_ref(), 1.0, Par::Seq);
-        let mut xty = Mat::<f64>::zeros(n, y.ncols());
-        matmul(xty.as_mut(), Accum::Replace, xc.transpose(), yc.as_ref(), 1.0, Par::Seq);
         let (eigvecs, eigvals) = symmetric_eigen(&gram)?;
         let mut projected = Mat::<f64>::zeros(n, y.ncols());
         matmul(projected.as_mut(), Accum::Replace, eigvecs.transpose(), xty.as_ref(), 1.0, Par::Seq);
@@ -140,17 +171,7 @@ impl RidgePath {
         });
         let mut w = Mat::<f64>::zeros(n, d);
         matmul(w.as_mut(), Accum::Replace, self.eigvecs.as_ref(), scaled.as_ref(), 1.0, Par::Seq);
-        let mut weights = Vec::with_capacity(n * d);
-        let mut bias = Vec::with_capacity(d);
-        for j in 0..d {
-            let mut b = self.y_mean[j];
-            for i in 0..n {
-                weights.push(w[(i, j)]);
-                b -= self.x_mean[i] * w[(i, j)];
-            }
-            bias.push(b);
-        }
-        Ok(Readout { n_features: n, weights, bias })
+        Ok(readout(w.as_ref(), &self.x_mean, &self.y_mean))
     }
 }
 
@@ -185,37 +206,13 @@ pub fn ridge_direct(x: MatRef<'_, f64>, y: MatRef<'_, f64>, penalty: f64) -> Res
     if !(penalty.is_finite() && penalty > 0.0) {
         return Err(Error::InvalidPenalty(penalty));
     }
-    if x.nrows() != y.nrows() {
-        return Err(Error::Shape(format!("{} feature rows but {} target rows", x.nrows(), y.nrows())));
+    let Centred { mut gram, xty, x_mean, y_mean } = centred(x, y)?;
+    for k in 0..gram.nrows() {
+        gram[(k, k)] += penalty;
     }
-    check_finite(x, "feature matrix")?;
-    check_finite(y, "target matrix")?;
-    let x_mean = column_means(x);
-    let y_mean = column_means(y);
-    let xc = Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] - x_mean[j]);
-    let yc = Mat::from_fn(y.nrows(), y.ncols(), |i, j| y[(i, j)] - y_mean[j]);
-    let n = x.ncols();
-    let mut a = Mat::<f64>::zeros(n, n);
-    matmul(a.as_mut(), Accum::Replace, xc.transpose(), xc.as_ref(), 1.0, Par::Seq);
-    for k in 0..n {
-        a[(k, k)] += penalty;
-    }
-    let mut rhs = Mat::<f64>::zeros(n, y.ncols());
-    matmul(rhs.as_mut(), Accum::Replace, xc.transpose(), yc.as_ref(), 1.0, Par::Seq);
-    let llt = a.llt(Side::Lower).map_err(|_| Error::Decomposition)?;
-    let w = faer::linalg::solvers::Solve::solve(&llt, rhs.as_ref());
-    let d = y.ncols();
-    let mut weights = Vec::with_capacity(n * d);
-    let mut bias = Vec::with_capacity(d);
-    for j in 0..d {
-        let mut b = y_mean[j];
-        for i in 0..n {
-            weights.push(w[(i, j)]);
-            b -= x_mean[i] * w[(i, j)];
-        }
-        bias.push(b);
-    }
-    Ok(Readout { n_features: n, weights, bias })
+    let llt = gram.llt(Side::Lower).map_err(|_| Error::Decomposition)?;
+    let w = faer::linalg::solvers::Solve::solve(&llt, xty.as_ref());
+    Ok(readout(w.as_ref(), &x_mean, &y_mean))
 }
 
 /// Normalised mean squared error: for each output the mean squared error
