@@ -94,7 +94,7 @@ impl RhythmicDmp {
     /// taken to be exactly one period.
     pub fn imitate(config: DmpConfig, demo: &[f64], n_dofs: usize) -> Result<RhythmicDmp> {
         config.check()?;
-        if n_dofs == 0 || demo.len() % n_dofs != 0 || demo.len() / n_dofs < 2 {
+        if n_dofs == 0 || !demo.len().is_multiple_of(n_dofs) || demo.len() / n_dofs < 2 {
             return Err(Error::Demonstration(format!("{} values are not at least 2 frames of {n_dofs}", demo.len())));
         }
         if let Some(k) = demo.iter().position(|v| !v.is_finite()) {
