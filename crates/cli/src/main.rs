@@ -65,7 +65,7 @@ enum Command {
         /// The configuration file.
         #[arg(long, short)]
         config: PathBuf,
-        /// Write the model here instead of the file's [output] model.
+        /// Write the model here instead of the path in the file's output section.
         #[arg(long, short)]
         output: Option<PathBuf>,
     },
