@@ -39,6 +39,7 @@ const RULES: &[(&str, &[&str])] = &[
     ("cpg-reservoir", &["cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
     ("cpg-hoap2", &["cpg-reservoir", "cpg-regression", "cpg-cli", "anyhow", "faer", "rayon"]),
     ("cpg-dmp", &["cpg-reservoir", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-centralized", &["cpg-reservoir", "cpg-hoap2", "cpg-cli", "anyhow"]),
 ];
 
 /// Checks the layering rules with `cargo tree`.
