@@ -275,7 +275,7 @@ pub fn search_frequencies(
     let step = if grid_hz.len() > 1 { (grid_hz[1] - grid_hz[0]).abs() } else { grid_hz[0] * 0.1 };
     let mut f = best.1;
     for c in 0..m {
-        let (mut lo, mut hi) = (f[c] - step / 2.0, f[c] + step / 2.0);
+        let (mut lo, mut hi) = ((f[c] - step / 2.0).max(0.0), f[c] + step / 2.0);
         let g = (5f64.sqrt() - 1.0) / 2.0;
         for _ in 0..20 {
             let a = hi - g * (hi - lo);
