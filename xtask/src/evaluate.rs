@@ -8,7 +8,7 @@ use anyhow::Context;
 use cpg_cli::evaluate::{RECOVERY_THRESHOLD, measure};
 use cpg_cli::generate::Controls;
 use cpg_hoap2::{ChannelMap, Robot};
-use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range, lag, orbit_distance, tile};
+use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range, lag, orbit_distance, settling_index, tile};
 use cpg_reservoir::{Generator, TrainSettings, TrainedCpg};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
@@ -416,14 +416,7 @@ pub fn run_all(args: &Args) -> anyhow::Result<()> {
     let trans = |y: &[f64], from: f64, cyc: &[f64]| -> Option<f64> {
         let d = orbit_distance(y, cyc, 1, (cyc.len() / 4).max(2));
         let s0 = secs(from);
-        let mut run = 0;
-        for (k, v) in d.iter().enumerate().skip(s0) {
-            run = if *v < RECOVERY_THRESHOLD { run + 1 } else { 0 };
-            if run >= cyc.len() {
-                return Some((k + 1 - cyc.len() - s0) as f64 / 120.0);
-            }
-        }
-        None
+        settling_index(&d, s0, RECOVERY_THRESHOLD, cyc.len()).map(|k| (k - s0) as f64 / 120.0)
     };
     let gait_ok = |(p, a): (f64, f64), cyc: &[f64]| {
         (p / cyc.len() as f64 - 1.0).abs() < 0.05 && (a / half_range(cyc) - 1.0).abs() < 0.25

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range, lag, orbit_distance};
+use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range, lag, orbit_distance, settling_index};
 use cpg_reservoir::{Generator, TrainedCpg};
 
 use crate::generate::Controls;
@@ -69,15 +69,7 @@ pub fn measure(m: &TrainedCpg, controls: &Controls, steps: usize) -> anyhow::Res
     let dist = orbit_distance(&b, cycle, d, window);
     let release = start + hold;
     // Recovered once the distance stays under the threshold for a whole cycle.
-    let mut recovery_s = None;
-    let mut run = 0;
-    for (k, v) in dist.iter().enumerate().skip(release) {
-        run = if *v < RECOVERY_THRESHOLD { run + 1 } else { 0 };
-        if run >= p {
-            recovery_s = Some((k + 1 - p - release) as f64 / rate);
-            break;
-        }
-    }
+    let recovery_s = settling_index(&dist, release, RECOVERY_THRESHOLD, p).map(|k| (k - release) as f64 / rate);
     let tail_a = col(&a[(release + 20 * p) * d..], 0);
     let tail_b = col(&b[(release + 20 * p) * d..], 0);
     let shift = lag(&tail_a, &tail_b, p / 2 + 1) / p as f64;

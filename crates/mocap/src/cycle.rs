@@ -198,6 +198,20 @@ pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize
     out
 }
 
+/// The first index `k ≥ from` after which `distance` stays below `threshold`
+/// for `hold` consecutive samples (the start of that run), or `None`.
+/// With [`orbit_distance`], this is when a perturbed rhythm is back on its orbit.
+pub fn settling_index(distance: &[f64], from: usize, threshold: f64, hold: usize) -> Option<usize> {
+    let mut run = 0;
+    for (k, v) in distance.iter().enumerate().skip(from) {
+        run = if *v < threshold { run + 1 } else { 0 };
+        if run >= hold.max(1) {
+            return Some(k + 1 - run);
+        }
+    }
+    None
+}
+
 /// The lag (in frames, fractional) by which `b` trails `a`, searched in
 /// `−max_lag..=max_lag` by the peak of their cross-correlation, refined by a
 /// parabola. Both are single-channel signals of the same length.
@@ -271,6 +285,9 @@ mod tests {
         assert!(d[24..].iter().all(|v| *v < 0.05), "{:?}", &d[24..30]);
         let off: Vec<f64> = y.iter().map(|v| 0.5 * v).collect();
         assert!(orbit_distance(&off, &cycle, 1, 25)[50] > 0.2);
+        let dist = [0.0, 0.5, 0.1, 0.1, 0.5, 0.1, 0.1, 0.1, 0.5];
+        assert_eq!(settling_index(&dist, 1, 0.2, 3), Some(5));
+        assert_eq!(settling_index(&dist, 1, 0.2, 4), None);
         // Over 40 periods the edge effects of the overlap average are small.
         let a = sine(4000, 100.0, 0.0);
         let b = sine(4000, 100.0, -2.0 * std::f64::consts::PI * 7.3 / 100.0);

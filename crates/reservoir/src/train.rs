@@ -1,7 +1,7 @@
 //! Training a CPG: teacher-forced harvesting, ridge regression for every
 //! penalty, validation of every candidate in noisy free run, choice of the best.
 
-use cpg_regression::{PenaltyGrid, Readout, RidgePath, sweep, sweep_chunked};
+use cpg_regression::{PenaltyGrid, Readout, RidgePath, nmse, sweep, sweep_chunked};
 use faer::Mat;
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -103,13 +103,9 @@ impl TrainSettings {
         }
     }
 
-    fn check(&self, train_len: usize) -> Result<()> {
-        if self.washout + 2 > train_len {
-            return Err(Error::Settings(format!(
-                "washout of {} steps leaves fewer than 2 of the {train_len} training samples",
-                self.washout
-            )));
-        }
+    /// The validation-noise settings are usable. (The washout is checked by
+    /// [`harvest`], which knows the sequence length.)
+    fn check_noise(&self) -> Result<()> {
         if !(self.noise_variance.is_finite() && self.noise_variance >= 0.0) {
             return Err(Error::Settings(format!("noise variance {} must be >= 0", self.noise_variance)));
         }
@@ -262,12 +258,7 @@ fn validate_in<R: SimdDot>(
             r.n_features
         )));
     }
-    if !(settings.noise_variance.is_finite() && settings.noise_variance >= 0.0) || settings.n_noise_draws == 0 {
-        return Err(Error::Settings(format!(
-            "noise variance {} must be >= 0 and draws {} >= 1",
-            settings.noise_variance, settings.n_noise_draws
-        )));
-    }
+    settings.check_noise()?;
     let readouts_r: Vec<ReadoutR<R>> = readouts.iter().map(ReadoutR::new).collect();
     let mut x0 = vec![R::ZERO; n];
     engine.teacher_force(&mut x0, &warmup.outputs, &warmup.controls, |_, _| {});
@@ -314,8 +305,8 @@ fn validate_in<R: SimdDot>(
 
 fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
     let engine = Engine::<R>::new(reservoir);
-    let t = data.train.check("training sequence", engine.d, engine.u)?;
-    settings.check(t)?;
+    // Settings first: the harvest and the factorisation are the expensive part.
+    settings.check_noise()?;
     let Harvest { states, targets } = harvest_in(&engine, &data.train, settings.washout)?;
     let (rows, n, d) = (states.nrows(), engine.n, engine.d);
     let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
@@ -330,26 +321,15 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
         return Err(Error::Settings("every candidate penalty diverged in validation".into()));
     }
     let readout = readouts[chosen].clone();
-    let mut pred = vec![0.0; d];
-    let mut sq = vec![0.0; d];
-    let mut tv = vec![0.0; d];
-    let mut tm = vec![0.0; d];
-    for i in 0..rows {
-        for j in 0..d {
-            tm[j] += targets[(i, j)] / rows as f64;
-        }
-    }
+    let mut pred = vec![0.0; rows * d];
     let mut row = vec![0.0; n];
-    for i in 0..rows {
+    for (i, out) in pred.chunks_exact_mut(d).enumerate() {
         for (j, r) in row.iter_mut().enumerate() {
             *r = states[(i, j)];
         }
-        readout.apply(&row, &mut pred);
-        for j in 0..d {
-            sq[j] += (pred[j] - targets[(i, j)]).powi(2);
-            tv[j] += (targets[(i, j)] - tm[j]).powi(2);
-        }
+        readout.apply(&row, out);
     }
-    let train_nmse = sq.iter().zip(&tv).map(|(s, v)| s / v.max(f64::MIN_POSITIVE)).sum::<f64>() / d as f64;
+    let target: Vec<f64> = (0..rows).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| targets[(i, j)]).collect();
+    let train_nmse = nmse(&pred, &target, d);
     Ok(Training { readout, chosen, curve, start_state: x0, train_nmse })
 }
