@@ -7,8 +7,8 @@
 //! survive; the method is reconstructed in `shared/research/methods.md` §1,
 //! and every choice below that the sources do not state is marked *(chosen)*.
 //!
-//! - Centers: `φ_m(t) = ω_m·t` (phase form; the Hopf normal form has the same
-//!   limit cycle). *(chosen: zero initial phases, which the satellite grid makes redundant)*
+//! - Centers: `φ_m(t) = ω_m·t` (phase form), or [`HopfCenters`], the Hopf normal
+//!   form with the same limit cycle, as an option. *(chosen: zero initial phases, which the satellite grid makes redundant)*
 //! - Satellites, RBF basis: `Φ_j(φ) = Π_m exp(b²·(cos(φ_m − φ̄_jm) − 1))`, the
 //!   torus form of `exp(−b²|q − q̄_j|²/2)` for `q` on unit circles. Alternatives
 //!   of the paper: harmonic `cos(b·j·φ)` and polynomial `φ^(j−1)` (of the first center).
@@ -117,22 +117,36 @@ pub fn satellite_centres(n: usize, omega_rad_s: &[f64], span_s: f64) -> Vec<f64>
 }
 
 impl CentralizedNet {
-    /// Satellite activities at time `t_s` into `out` (length N).
+    /// Satellite activities at time `t_s` into `out` (length N), with the
+    /// phase-form centers `φ_m = ω_m·t`.
     pub fn satellites(&self, t_s: f64, out: &mut [f64]) {
+        let w = &self.omega_rad_s;
+        self.satellites_with(|m| w[m] * t_s, t_s, out);
+    }
+
+    /// Satellite activities for given center phases (rad, one per center),
+    /// e.g. from [`HopfCenters`]. The polynomial basis, a function of time,
+    /// reads the time as `φ_1 / ω_1`.
+    pub fn satellites_at_phases(&self, phases: &[f64], out: &mut [f64]) {
+        let t_s = if self.omega_rad_s[0] != 0.0 { phases[0] / self.omega_rad_s[0] } else { 0.0 };
+        self.satellites_with(|m| phases[m], t_s, out);
+    }
+
+    fn satellites_with(&self, phase: impl Fn(usize) -> f64, t_s: f64, out: &mut [f64]) {
         let m = self.omega_rad_s.len();
         match self.basis {
             Basis::Rbf { b } => {
                 let b2 = b * b;
                 for (j, o) in out.iter_mut().enumerate() {
                     let mut e = 0.0;
-                    for (k, w) in self.omega_rad_s.iter().enumerate() {
-                        e += (w * t_s - self.centres[j * m + k]).cos() - 1.0;
+                    for k in 0..m {
+                        e += (phase(k) - self.centres[j * m + k]).cos() - 1.0;
                     }
                     *o = (b2 * e).exp();
                 }
             }
             Basis::Harmonic { b } => {
-                let phi = self.omega_rad_s[0] * t_s;
+                let phi = phase(0);
                 for (j, o) in out.iter_mut().enumerate() {
                     *o = (b * (j + 1) as f64 * phi).cos();
                 }
@@ -291,6 +305,64 @@ pub fn search_frequencies(
     Ok(f.iter().map(|h| 2.0 * PI * h).collect())
 }
 
+/// Centers in the Hopf normal form, `ż_m = (1 − |z_m|²)·z_m + i·ω_m·z_m`,
+/// the option beside the phase form: on the unit circle both give
+/// `φ_m = ω_m·t`, but a Hopf center pushed off its cycle returns to it
+/// (radially at rate 2/s) while keeping the phase it was pushed to.
+/// Advanced in closed form; allocation-free.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HopfCenters {
+    /// Angular frequency of each center, rad/s.
+    pub omega_rad_s: Vec<f64>,
+    /// Center states `(Re z, Im z)`.
+    pub z: Vec<[f64; 2]>,
+    /// Unwrapped phases (rad), tracked so that phases grow without bound like `ω·t`.
+    unwrapped: Vec<f64>,
+}
+
+impl HopfCenters {
+    /// Centers on their cycles at phase 0.
+    pub fn new(omega_rad_s: Vec<f64>) -> HopfCenters {
+        let m = omega_rad_s.len();
+        HopfCenters { omega_rad_s, z: vec![[1.0, 0.0]; m], unwrapped: vec![0.0; m] }
+    }
+
+    /// Advances every center by `dt_s`, exactly: in polar form the normal
+    /// form separates into `ṙ = r(1 − r²)`, solved by
+    /// `r(t) = (1 + (1/r₀² − 1)·e^(−2t))^(−1/2)`, and `φ̇ = ω`.
+    pub fn advance(&mut self, dt_s: f64) {
+        let decay = (-2.0 * dt_s).exp();
+        for ((z, &w), u) in self.z.iter_mut().zip(&self.omega_rad_s).zip(self.unwrapped.iter_mut()) {
+            let r2 = z[0] * z[0] + z[1] * z[1];
+            let r = if r2 > 0.0 { (1.0 / (1.0 + (1.0 / r2 - 1.0) * decay)).sqrt() } else { 0.0 };
+            *u += w * dt_s;
+            if r2 > 0.0 {
+                let (sin, cos) = (z[1].atan2(z[0]) + w * dt_s).sin_cos();
+                *z = [r * cos, r * sin];
+            }
+        }
+    }
+
+    /// Moves center `m` to `z` (a perturbation); its phase is kept continuous.
+    pub fn set_state(&mut self, m: usize, z: [f64; 2]) {
+        if let (Some(old), Some(u)) = (self.z.get_mut(m), self.unwrapped.get_mut(m)) {
+            let turn = (z[1].atan2(z[0]) - old[1].atan2(old[0]) + PI).rem_euclid(2.0 * PI) - PI;
+            *u += turn;
+            *old = z;
+        }
+    }
+
+    /// The unwrapped phases into `out` (one per center).
+    pub fn phases(&self, out: &mut [f64]) {
+        out.copy_from_slice(&self.unwrapped);
+    }
+
+    /// Distance of each center from its unit cycle, `| |z| − 1 |`, largest.
+    pub fn off_cycle(&self) -> f64 {
+        self.z.iter().map(|z| ((z[0] * z[0] + z[1] * z[1]).sqrt() - 1.0).abs()).fold(0.0, f64::max)
+    }
+}
+
 /// The switching module: a clock hub and one sigmoid window per segment,
 /// gluing networks fitted on consecutive segments `[T_{m−1}, T_m)` (seconds).
 #[derive(Debug, Clone, PartialEq)]
@@ -318,25 +390,37 @@ impl Switched {
         }
     }
 
+    /// Largest satellite count of the glued networks (the scratch size [`Switched::output`] needs).
+    pub fn max_satellites(&self) -> usize {
+        self.nets.iter().map(|n| n.n_satellites).max().unwrap_or(0)
+    }
+
+    /// The glued output at `t_s` into `out` (length D). Scratch: `w` one value
+    /// per segment, `sat` at least [`Switched::max_satellites`], `y` length D.
+    /// Allocates nothing.
+    pub fn output(&self, t_s: f64, w: &mut [f64], sat: &mut [f64], y: &mut [f64], out: &mut [f64]) {
+        self.windows(t_s, w);
+        out.iter_mut().for_each(|v| *v = 0.0);
+        for (m, net) in self.nets.iter().enumerate() {
+            if w[m].abs() < 1e-12 {
+                continue;
+            }
+            net.output(t_s - self.boundaries_s[m], &mut sat[..net.n_satellites], y);
+            for (o, v) in out.iter_mut().zip(y.iter()) {
+                *o += w[m] * v;
+            }
+        }
+    }
+
     /// The glued output at `T` frames of `rate_hz`, frame-major.
     pub fn generate(&self, t: usize, rate_hz: f64) -> Vec<f64> {
-        let d = self.nets[0].readout.n_outputs();
+        let d = self.nets.first().map_or(0, |n| n.readout.n_outputs());
         let mut w = vec![0.0; self.nets.len()];
-        let mut sat: Vec<Vec<f64>> = self.nets.iter().map(|n| vec![0.0; n.n_satellites]).collect();
+        let mut sat = vec![0.0; self.max_satellites()];
         let mut y = vec![0.0; d];
         let mut out = vec![0.0; t * d];
-        for k in 0..t {
-            let ts = k as f64 / rate_hz;
-            self.windows(ts, &mut w);
-            for (m, net) in self.nets.iter().enumerate() {
-                if w[m].abs() < 1e-12 {
-                    continue;
-                }
-                net.output(ts - self.boundaries_s[m], &mut sat[m], &mut y);
-                for i in 0..d {
-                    out[k * d + i] += w[m] * y[i];
-                }
-            }
+        for (k, o) in out.chunks_exact_mut(d.max(1)).enumerate() {
+            self.output(k as f64 / rate_hz, &mut w, &mut sat, &mut y, o);
         }
         out
     }

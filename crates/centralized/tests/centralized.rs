@@ -106,3 +106,35 @@ fn aicc_and_bad_input() {
     assert!(CentralizedNet::fit(vec![], 3, Basis::Rbf { b: 1.0 }, &[0.0, 1.0], 1, RATE).is_err());
     assert!(search_frequencies(3, &[1.0, 2.0], 4, Basis::Rbf { b: 1.0 }, &[0.0, 1.0, 0.0], 1, RATE).is_err());
 }
+
+#[test]
+fn hopf_centers_follow_the_phase_form_and_return_to_their_cycle() {
+    let x = signal(600, 0.7, 1.13);
+    let net =
+        CentralizedNet::fit(vec![2.0 * PI * 0.7, 2.0 * PI * 1.13], 49, Basis::Rbf { b: 2.6 }, &x, 2, 60.0).unwrap();
+    let mut hopf = HopfCenters::new(net.omega_rad_s.clone());
+    let (mut sat_a, mut sat_b, mut ph) = (vec![0.0; 49], vec![0.0; 49], vec![0.0; 2]);
+    let mut worst: f64 = 0.0;
+    for k in 1..=600 {
+        hopf.advance(1.0 / 60.0);
+        hopf.phases(&mut ph);
+        net.satellites_at_phases(&ph, &mut sat_a);
+        net.satellites(k as f64 / 60.0, &mut sat_b);
+        worst = sat_a.iter().zip(&sat_b).map(|(a, b)| (a - b).abs()).fold(worst, f64::max);
+    }
+    // On the unit circle the closed-form advance is the phase form, up to rounding.
+    assert!(worst < 1e-9, "Hopf vs phase form: {worst}");
+    // Pushed to half the radius at a quarter turn, the center keeps that phase
+    // and returns to its cycle (radial rate 2/s: 1 % left after about 2.5 s).
+    hopf.phases(&mut ph);
+    let before = ph[0];
+    hopf.set_state(0, [0.0, 0.5]);
+    hopf.phases(&mut ph);
+    let jump = (ph[0] - before).rem_euclid(2.0 * PI);
+    assert!(hopf.off_cycle() > 0.49);
+    for _ in 0..180 {
+        hopf.advance(1.0 / 60.0);
+    }
+    assert!(hopf.off_cycle() < 0.01, "still {:.4} off the cycle after 3 s", hopf.off_cycle());
+    assert!(jump > 0.0 && jump < 2.0 * PI);
+}

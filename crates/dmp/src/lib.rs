@@ -202,6 +202,16 @@ impl RhythmicDmp {
         self.x = x;
     }
 
+    /// Holds the system at positions `y` with zero velocity (an outside force
+    /// that grabs the limb); the phase is untouched. Values beyond
+    /// [`RhythmicDmp::n_dofs`] are ignored.
+    pub fn hold(&mut self, y: &[f64]) {
+        for ((s, v), t) in self.y.iter_mut().zip(self.dy.iter_mut()).zip(y) {
+            *s = *t;
+            *v = 0.0;
+        }
+    }
+
     /// One step with tempo `tau` (> 1 is faster) and error coupling `error`
     /// (≥ 0 slows the phase down); returns the positions. Allocates nothing.
     pub fn step(&mut self, tau: f64, error: f64) -> &[f64] {
