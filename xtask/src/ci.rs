@@ -34,12 +34,26 @@ fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
 /// The layering rules: a crate, and the packages that must never appear among
 /// its normal (non-dev) dependencies, direct or transitive.
 const RULES: &[(&str, &[&str])] = &[
-    ("cpg-mocap", &["faer", "rayon", "nalgebra", "anyhow", "cpg-reservoir", "cpg-regression", "cpg-hoap2", "cpg-cli"]),
+    (
+        "cpg-mocap",
+        &[
+            "faer",
+            "rayon",
+            "nalgebra",
+            "anyhow",
+            "cpg-reservoir",
+            "cpg-regression",
+            "cpg-hoap2",
+            "cpg-cli",
+            "cpg-compare",
+        ],
+    ),
     ("cpg-regression", &["cpg-reservoir", "cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
-    ("cpg-reservoir", &["cpg-mocap", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-reservoir", &["cpg-mocap", "cpg-hoap2", "cpg-cli", "cpg-compare", "anyhow"]),
     ("cpg-hoap2", &["cpg-reservoir", "cpg-regression", "cpg-cli", "anyhow", "faer", "rayon"]),
-    ("cpg-dmp", &["cpg-reservoir", "cpg-hoap2", "cpg-cli", "anyhow"]),
-    ("cpg-centralized", &["cpg-reservoir", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-dmp", &["cpg-reservoir", "cpg-centralized", "cpg-compare", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-centralized", &["cpg-reservoir", "cpg-dmp", "cpg-compare", "cpg-hoap2", "cpg-cli", "anyhow"]),
+    ("cpg-compare", &["cpg-hoap2", "cpg-cli", "anyhow"]),
 ];
 
 /// Checks the layering rules with `cargo tree`.

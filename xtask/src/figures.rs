@@ -20,6 +20,10 @@ pub enum Look {
     Control,
     /// Data shown for context: solid light gray (phase portraits).
     Data,
+    /// Vertical bars from 0 to each point's y, 0.8 x-units wide, dark gray.
+    Bars,
+    /// Points only (small black circles), e.g. values at a few settings.
+    Marks,
 }
 
 /// One curve.
@@ -84,7 +88,10 @@ where
     let cells = area.split_evenly((rows, cols));
     for (panel, cell) in panels.iter().zip(cells.iter()) {
         let (x0, x1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
-        let (y0, y1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
+        let bars = panel.curves.iter().any(|c| c.look == Look::Bars);
+        let (x0, x1) = if bars { (x0 - 0.5, x1 + 0.5) } else { (x0, x1) };
+        let zero = bars.then_some(0.0);
+        let (y0, y1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)).chain(zero));
         let mut chart = ChartBuilder::on(cell)
             .caption(&panel.title, ("sans-serif", 16))
             .margin(8)
@@ -104,20 +111,29 @@ where
         for c in &panel.curves {
             let gray = RGBColor(128, 128, 128);
             let light = RGBColor(185, 185, 185);
-            let res = match c.look {
-                Look::Teacher => chart
-                    .draw_series(DashedLineSeries::new(c.points.iter().copied(), 6, 4, gray.stroke_width(2)))
-                    .map(|_| ()),
-                Look::Control => chart
-                    .draw_series(DashedLineSeries::new(c.points.iter().copied(), 5, 4, light.stroke_width(2)))
-                    .map(|_| ()),
-                Look::Model => {
-                    chart.draw_series(LineSeries::new(c.points.iter().copied(), BLACK.stroke_width(1))).map(|_| ())
-                }
-                Look::Data => {
-                    chart.draw_series(LineSeries::new(c.points.iter().copied(), light.stroke_width(1))).map(|_| ())
-                }
-            };
+            let res =
+                match c.look {
+                    Look::Teacher => chart
+                        .draw_series(DashedLineSeries::new(c.points.iter().copied(), 6, 4, gray.stroke_width(2)))
+                        .map(|_| ()),
+                    Look::Control => chart
+                        .draw_series(DashedLineSeries::new(c.points.iter().copied(), 5, 4, light.stroke_width(2)))
+                        .map(|_| ()),
+                    Look::Model => {
+                        chart.draw_series(LineSeries::new(c.points.iter().copied(), BLACK.stroke_width(1))).map(|_| ())
+                    }
+                    Look::Data => {
+                        chart.draw_series(LineSeries::new(c.points.iter().copied(), light.stroke_width(1))).map(|_| ())
+                    }
+                    Look::Bars => chart
+                        .draw_series(c.points.iter().map(|&(x, y)| {
+                            Rectangle::new([(x - 0.4, 0.0), (x + 0.4, y)], RGBColor(90, 90, 90).filled())
+                        }))
+                        .map(|_| ()),
+                    Look::Marks => {
+                        chart.draw_series(c.points.iter().map(|&p| Circle::new(p, 3, BLACK.filled()))).map(|_| ())
+                    }
+                };
             res.map_err(|e| anyhow::anyhow!("{e:?}"))?;
         }
     }

@@ -48,9 +48,6 @@ enum Command {
     /// REPORT.md (each metric beside the paper's claim), metrics.json, the
     /// figures (PNG and SVG) and HOAP-2 joint trajectories.
     Evaluate(evaluate::Args),
-    /// The second generator family (centralized oscillator + RBF networks) and
-    /// the DMP baseline on the marker positions of 35_01 (non-segmented; work in progress).
-    EvaluateCentralized,
     /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
     /// training, each beside a measured floor, and f32 against f64 accuracy.
     Bench,
@@ -75,7 +72,6 @@ fn main() -> std::process::ExitCode {
         Command::Bench => bench::run(),
         Command::Train(args) => experiments::run_train(&args),
         Command::Evaluate(args) => evaluate::run_all(&args),
-        Command::EvaluateCentralized => centralized_eval::run(),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

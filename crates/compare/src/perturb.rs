@@ -13,6 +13,10 @@ pub struct Response {
     /// Time from the release until the output stays within `threshold` of the
     /// rhythm's orbit for a whole cycle, seconds (`None`: not within the run).
     pub recovery_s: Option<f64>,
+    /// Time from the release until the output stays within `threshold` of the
+    /// unperturbed twin itself (same phase) for a whole cycle, seconds
+    /// (`None`: it never rejoins, e.g. because its phase moved).
+    pub rejoin_s: Option<f64>,
     /// Phase of the perturbed run relative to an unperturbed twin, long after
     /// the release, in cycles (positive: behind).
     pub phase_shift_cycles: f64,
@@ -70,8 +74,18 @@ pub fn respond(
     let release = at + hold;
     let dist = orbit_distance(&b, cycle, d, (p / 4).max(2));
     let recovery_s = settling_index(&dist, release, threshold, p).map(|k| (k - release) as f64 * free.dt_s());
+    let sd = {
+        let m = cycle.iter().sum::<f64>() / cycle.len() as f64;
+        (cycle.iter().map(|v| (v - m).powi(2)).sum::<f64>() / cycle.len() as f64).sqrt().max(f64::MIN_POSITIVE)
+    };
+    let twin: Vec<f64> = a
+        .chunks_exact(d)
+        .zip(b.chunks_exact(d))
+        .map(|(fa, fb)| (fa.iter().zip(fb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / d as f64).sqrt() / sd)
+        .collect();
+    let rejoin_s = settling_index(&twin, release, threshold, p).map(|k| (k - release) as f64 * free.dt_s());
     let col = |x: &[f64], from: usize| -> Vec<f64> { x.iter().skip(from * d).step_by(d).copied().collect() };
     let tail = release + (after - 2 * p).min(after / 2);
     let shift = lag(&col(&a, tail), &col(&b, tail), p / 2 + 1) / p as f64;
-    Ok(Response { recovery_s, phase_shift_cycles: shift, perturbed: col(&b, 0), free: col(&a, 0) })
+    Ok(Response { recovery_s, rejoin_s, phase_shift_cycles: shift, perturbed: col(&b, 0), free: col(&a, 0) })
 }

@@ -112,7 +112,7 @@ fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_wa
 
     // Held at +3 for 50 ms (6 steps) after 2 s.
     let push = Push { held: &[3.0], at: 240, hold: 6, after: 2000, threshold: 0.25 };
-    let mut fresh = |g: &mut dyn PatternGenerator| g.reset();
+    let fresh = |g: &mut dyn PatternGenerator| g.reset();
     let r_clock = {
         let (mut a, mut b) = (c.clone(), c.clone());
         fresh(&mut a);
@@ -123,6 +123,8 @@ fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_wa
     // soon as the held samples leave the 25-sample distance window, in phase.
     assert!(r_clock.recovery_s.unwrap() <= 25.0 / RATE, "{:?}", r_clock.recovery_s);
     assert!(r_clock.phase_shift_cycles.abs() < 0.005);
+    // ... and back on its unperturbed twin at the first free step.
+    assert_eq!(r_clock.rejoin_s, Some(0.0));
     let r_dmp = {
         let (mut a, mut b) = (dg.clone(), dg.clone());
         fresh(&mut a);
@@ -133,6 +135,8 @@ fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_wa
     let rd = r_dmp.recovery_s.unwrap();
     assert!(rd > r_clock.recovery_s.unwrap() && rd < 2.0, "DMP recovery {rd} s");
     assert!(r_dmp.phase_shift_cycles.abs() < 0.005);
+    let rj = r_dmp.rejoin_s.unwrap();
+    assert!(rj > 0.0 && rj < 1.0, "DMP rejoins its twin after {rj} s");
     let r_res = {
         let (mut a, mut b) = (rg.clone(), rg.clone());
         fresh(&mut a);
