@@ -13,7 +13,7 @@ use cpg_compare::fit::{
     Segmented, Spec, TABLE1_BOUNDARIES, TABLE1_PAPER, TABLE1_SPECS, fit, starts_from_paper, table1,
 };
 use cpg_compare::measures::{Errors, align, errors};
-use cpg_compare::perturb::{Push, respond};
+use cpg_compare::perturb::{Push, outcome, respond};
 use cpg_compare::positions::{body_frame, flatten, glue, with_channels, world};
 use cpg_compare::{CentralizedCpg, Clock, DmpCpg, PatternGenerator, ReservoirCpg, run};
 use cpg_dmp::{DmpConfig, RhythmicDmp};
@@ -442,50 +442,34 @@ pub fn run_section(dir: &Path, quick: bool, e6: Option<&TrainedCpg>) -> anyhow::
     let held_z = f.cycle.iter().copied().fold(f64::NEG_INFINITY, f64::max) + 2.0;
     let held = held_z * f.std_deg + f.mean_deg;
     let push = Push { held: &[held], at: 240, hold: 6, after: 40 * p, threshold: 0.25 };
-    let mut family: Vec<(&str, Box<dyn PatternGenerator>)> = vec![
-        ("reservoir CPG (E1, seed 1)", Box::new(ReservoirCpg::new(m1.clone(), vec![])?)),
+    let responses = [
+        ("reservoir CPG (E1, seed 1)", respond(&ReservoirCpg::new(m1, vec![])?, &cycle_deg, push)?),
         (
             "centralized, 1 center / 16 satellites, phase center",
-            Box::new(CentralizedCpg::new(net1.clone(), Clock::Phase, RATE)?),
+            respond(&CentralizedCpg::new(net1.clone(), Clock::Phase, RATE)?, &cycle_deg, push)?,
         ),
         (
             "centralized, 1 center / 16 satellites, Hopf center",
-            Box::new(CentralizedCpg::new(net1.clone(), Clock::Hopf, RATE)?),
+            respond(&CentralizedCpg::new(net1.clone(), Clock::Hopf, RATE)?, &cycle_deg, push)?,
         ),
-        ("DMP, 100 basis functions", Box::new(DmpCpg::new(dmp1.clone(), 1.0, 1.0 / RATE)?)),
+        ("DMP, 100 basis functions", respond(&DmpCpg::new(dmp1, 1.0, 1.0 / RATE)?, &cycle_deg, push)?),
     ];
-    let mut twins: Vec<Box<dyn PatternGenerator>> = vec![
-        Box::new(ReservoirCpg::new(m1, vec![])?),
-        Box::new(CentralizedCpg::new(net1.clone(), Clock::Phase, RATE)?),
-        Box::new(CentralizedCpg::new(net1.clone(), Clock::Hopf, RATE)?),
-        Box::new(DmpCpg::new(dmp1, 1.0, 1.0 / RATE)?),
-    ];
-    // The models' outputs are z-scored femur angles; the cycle is the orbit.
-    let mut responses = Vec::new();
-    for ((name, g), twin) in family.iter_mut().zip(twins.iter_mut()) {
-        let r = respond(twin.as_mut(), g.as_mut(), &cycle_deg, push)?;
-        responses.push((*name, r));
-    }
     // A Hopf center kicked off its cycle (to half the radius, a quarter turn ahead) instead.
-    let mut kicked = CentralizedCpg::new(net1.clone(), Clock::Hopf, RATE)?;
     let mut free = CentralizedCpg::new(net1, Clock::Hopf, RATE)?;
-    let mut out = [0.0];
-    let (mut a, mut b) = (Vec::new(), Vec::new());
-    for k in 0..240 + 40 * p {
+    let mut kicked = free.clone();
+    let (mut a, mut b) = (vec![0.0; 240 + 40 * p], vec![0.0; 240 + 40 * p]);
+    for (k, (fa, fb)) in a.chunks_exact_mut(1).zip(b.chunks_exact_mut(1)).enumerate() {
         if k == 240 {
             let mut ph = [0.0];
             kicked.hopf_mut().phases(&mut ph);
             let ang = ph[0] + PI / 2.0;
             kicked.hopf_mut().set_state(0, [0.5 * ang.cos(), 0.5 * ang.sin()]);
         }
-        free.step(&mut out)?;
-        a.push(out[0]);
-        kicked.step(&mut out)?;
-        b.push(out[0]);
+        free.step(fa)?;
+        kicked.step(fb)?;
     }
-    let dist = cpg_mocap::cycle::orbit_distance(&b, &cycle_deg, 1, (p / 4).max(2));
-    let kick_rec = cpg_mocap::cycle::settling_index(&dist, 240, 0.25, p).map(|k| (k - 240) as f64 / RATE);
-    let kick_shift = cpg_mocap::cycle::lag(&a[240 + 20 * p..], &b[240 + 20 * p..], p / 2 + 1) / p as f64;
+    let kick = outcome(&a, &b, 1, &cycle_deg, 240, 0.25, 1.0 / RATE)?;
+    let (kick_rec, kick_shift) = (kick.recovery_s, kick.phase_shift_cycles);
     md.line("### Perturbation: what each family does when its output is held away (E3's protocol)");
     md.line("");
     md.line(format!("Every family learns the left-femur cycle of E1 ({p} frames; the centralized network and the DMP from the same cycle the reservoir repeats; the search puts the center at {f1_hz:.3} Hz, {:.2} × the gait frequency, so one turn of the center spans {:.1} gait cycles). After 2 s the output is held at {held:.1}° (the cycle's maximum + 2 σ) for 50 ms. *Back on the orbit*: the time until the output stays within 0.25 σ of the cycle's orbit for a whole cycle (E3's measure; its {}-frame window makes {:.3} s the earliest possible). *Back on the twin*: the same against an unperturbed copy, i.e. also in phase. *Phase shift*: lag behind the twin 20 cycles later, in gait cycles.", f1_hz * p as f64 / RATE, RATE / (f1_hz * p as f64), (p / 4).max(2), ((p / 4).max(2) - 1) as f64 / RATE));
@@ -506,8 +490,9 @@ pub fn run_section(dir: &Path, quick: bool, e6: Option<&TrainedCpg>) -> anyhow::
         md.line(format!("| {name} | {rec} | {rej} | {:+.3} | {why} |", r.phase_shift_cycles));
     }
     md.line(format!(
-        "| centralized, Hopf center kicked to radius 0.5, a quarter turn ahead (instead of the hold) | {} | never (phase moved) | {kick_shift:+.3} | the center returns to its cycle at rate 2/s and keeps the new phase |",
-        kick_rec.map_or("not within 40 cycles".into(), |s| format!("{s:.3}"))
+        "| centralized, Hopf center kicked to radius 0.5, a quarter turn ahead (instead of the hold) | {} | {} | {kick_shift:+.3} | the center returns to its cycle at rate 2/s and keeps the new phase |",
+        kick_rec.map_or("not within 40 cycles".into(), |s| format!("{s:.3}")),
+        kick.rejoin_s.map_or("never (phase moved)".into(), |s| format!("{s:.3}"))
     ));
     md.line("");
     let trace = |v: &[f64]| -> Vec<(f64, f64)> {
@@ -542,7 +527,7 @@ pub fn run_section(dir: &Path, quick: bool, e6: Option<&TrainedCpg>) -> anyhow::
     metrics.insert("perturbation".into(), json!({
         "held_deg": held, "center_hz": f1_hz,
         "families": responses.iter().map(|(n, r)| json!({"generator": n, "recovery_s": r.recovery_s, "rejoin_s": r.rejoin_s, "phase_shift_cycles": r.phase_shift_cycles})).collect::<Vec<_>>(),
-        "hopf_kick": {"recovery_s": kick_rec, "phase_shift_cycles": kick_shift},
+        "hopf_kick": {"recovery_s": kick_rec, "rejoin_s": kick.rejoin_s, "phase_shift_cycles": kick_shift},
     }));
     // ---------------------------------------------------------------- summary
     let best = rows.iter().min_by(|a, b| a.1.mean_mm.total_cmp(&b.1.mean_mm)).context("no fits")?;

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range, lag, orbit_distance, settling_index};
+use cpg_mocap::cycle::{align_to_cycle, estimate_period, half_range};
 use cpg_reservoir::{Generator, TrainedCpg};
 
 use crate::generate::Controls;
@@ -65,14 +65,10 @@ pub fn measure(m: &TrainedCpg, controls: &Controls, steps: usize) -> anyhow::Res
         }
         b.extend_from_slice(hit.normalised_output());
     }
-    let window = (p / 4).max(2);
-    let dist = orbit_distance(&b, cycle, d, window);
     let release = start + hold;
-    // Recovered once the distance stays under the threshold for a whole cycle.
-    let recovery_s = settling_index(&dist, release, RECOVERY_THRESHOLD, p).map(|k| (k - release) as f64 / rate);
-    let tail_a = col(&a[(release + 20 * p) * d..], 0);
-    let tail_b = col(&b[(release + 20 * p) * d..], 0);
-    let shift = lag(&tail_a, &tail_b, p / 2 + 1) / p as f64;
+    // Recovered once the distance to the orbit stays under the threshold for a whole cycle.
+    let o = cpg_compare::perturb::outcome(&a, &b, d, cycle, release, RECOVERY_THRESHOLD, 1.0 / rate)?;
+    let (recovery_s, shift) = (o.recovery_s, o.phase_shift_cycles);
     Ok(Stability {
         steps,
         period_end,

@@ -140,14 +140,8 @@ pub fn segmented(
     let switched = Switched { boundaries_s: starts.iter().map(|&s| s as f64 / rate_hz).collect(), beta, nets };
     let (s0, s1) = (starts[0], starts[starts.len() - 1]);
     let data = &x[s0 * d..s1 * d];
-    // The switched network's clock starts at the first boundary.
-    let mut output = vec![0.0; data.len()];
-    let mut w = vec![0.0; switched.nets.len()];
-    let mut sat = vec![0.0; switched.max_satellites()];
-    let mut y = vec![0.0; d];
-    for (k, o) in output.chunks_exact_mut(d).enumerate() {
-        switched.output((s0 + k) as f64 / rate_hz, &mut w, &mut sat, &mut y, o);
-    }
+    // The switched network's clock starts at time 0, the first frame of the data.
+    let output = switched.generate(s1, rate_hz).split_off(s0 * d);
     let per_segment = (0..starts.len() - 1)
         .map(|m| {
             let (a, b) = ((starts[m] - s0) * d, (starts[m + 1] - s0) * d);

@@ -47,15 +47,28 @@ fn check(x: &[f64], y: &[f64], d: usize) -> Result<usize> {
     Ok(x.len() / d)
 }
 
+/// Sums over the frames of coordinate `c`: `Σ|e|`, `Σ|x − x̄|`, `Σe²`, `Σ(x − x̄)²` with `e = x − y`.
+fn sums(x: &[f64], y: &[f64], d: usize, t: usize, c: usize) -> [f64; 4] {
+    let m = (0..t).map(|k| x[k * d + c]).sum::<f64>() / t as f64;
+    let mut s = [0.0; 4];
+    for k in 0..t {
+        let e = x[k * d + c] - y[k * d + c];
+        let v = x[k * d + c] - m;
+        s[0] += e.abs();
+        s[1] += v.abs();
+        s[2] += e * e;
+        s[3] += v * v;
+    }
+    s
+}
+
 /// Relative L1 error of each coordinate (`NaN` for a coordinate that does not move).
 pub fn per_coordinate(x: &[f64], y: &[f64], d: usize) -> Result<Vec<f64>> {
     let t = check(x, y, d)?;
     Ok((0..d)
         .map(|c| {
-            let m = (0..t).map(|k| x[k * d + c]).sum::<f64>() / t as f64;
-            let den: f64 = (0..t).map(|k| (x[k * d + c] - m).abs()).sum();
-            let num: f64 = (0..t).map(|k| (x[k * d + c] - y[k * d + c]).abs()).sum();
-            if den > 0.0 { num / den } else { f64::NAN }
+            let [n1, d1, _, _] = sums(x, y, d, t, c);
+            if d1 > 0.0 { n1 / d1 } else { f64::NAN }
         })
         .collect())
 }
@@ -66,16 +79,7 @@ pub fn errors(x: &[f64], y: &[f64], d: usize) -> Result<Errors> {
     let dist: f64 = x.chunks_exact(3).zip(y.chunks_exact(3)).map(|(a, b)| point_distance(a, b)).sum();
     let (mut l1, mut l2, mut abs, mut moving) = (0.0, 0.0, 0.0, 0usize);
     for c in 0..d {
-        let m = (0..t).map(|k| x[k * d + c]).sum::<f64>() / t as f64;
-        let (mut n1, mut d1, mut n2, mut d2) = (0.0, 0.0, 0.0, 0.0);
-        for k in 0..t {
-            let e = x[k * d + c] - y[k * d + c];
-            let s = x[k * d + c] - m;
-            n1 += e.abs();
-            d1 += s.abs();
-            n2 += e * e;
-            d2 += s * s;
-        }
+        let [n1, d1, n2, d2] = sums(x, y, d, t, c);
         abs += n1 / t as f64;
         if d1 > 0.0 {
             l1 += n1 / d1;

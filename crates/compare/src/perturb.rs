@@ -41,39 +41,54 @@ pub struct Push<'a> {
     pub threshold: f64,
 }
 
-/// Runs `free` and `hit` (two generators in the same state) side by side and
-/// applies `push` to `hit`. The orbit is `cycle` (one period, `p × D`, in output
-/// units) and distances are in units of its standard deviation.
-pub fn respond(
-    free: &mut dyn PatternGenerator,
-    hit: &mut dyn PatternGenerator,
-    cycle: &[f64],
-    push: Push<'_>,
-) -> Result<Response> {
+/// Runs `g` and an unperturbed twin (a clone in the same state) side by
+/// side and applies `push` to `g`. The orbit is `cycle` (one period, `p × D`,
+/// in output units) and distances are in units of its standard deviation.
+pub fn respond<G: PatternGenerator + Clone>(g: &G, cycle: &[f64], push: Push<'_>) -> Result<Response> {
     let Push { held, at, hold, after, threshold } = push;
-    let d = free.n_outputs();
-    if hit.n_outputs() != d || held.len() != d || cycle.is_empty() || !cycle.len().is_multiple_of(d) {
-        return Err(Error::Data(format!(
-            "generators with {} and {} outputs, {} held values and a cycle of {} values do not fit together",
-            d,
-            hit.n_outputs(),
-            held.len(),
-            cycle.len()
-        )));
+    let d = g.n_outputs();
+    if held.len() != d {
+        return Err(Error::Data(format!("{} held values for a generator with {d} outputs", held.len())));
     }
-    let p = cycle.len() / d;
-    if after < 4 * p {
-        return Err(Error::Parameter(format!("{after} steps after the release are fewer than 4 cycles of {p}")));
-    }
+    let (mut free, mut hit) = (g.clone(), g.clone());
     let total = at + hold + after;
     let (mut a, mut b) = (vec![0.0; total * d], vec![0.0; total * d]);
     for (k, (fa, fb)) in a.chunks_exact_mut(d).zip(b.chunks_exact_mut(d)).enumerate() {
         free.step(fa)?;
         if (at..at + hold).contains(&k) { hit.step_held(held, fb)? } else { hit.step(fb)? }
     }
-    let release = at + hold;
-    let dist = orbit_distance(&b, cycle, d, (p / 4).max(2));
-    let recovery_s = settling_index(&dist, release, threshold, p).map(|k| (k - release) as f64 * free.dt_s());
+    outcome(&a, &b, d, cycle, at + hold, threshold, g.dt_s())
+}
+
+/// Measures a perturbed run `b` against its unperturbed twin `a` (both
+/// `T × d`, frame-major, steps of `dt_s`) from the step `release` on, when the
+/// perturbation ended: how a perturbation of any kind (a hold, a kick of the
+/// state) was answered. At least 4 cycles must follow the release.
+pub fn outcome(
+    a: &[f64],
+    b: &[f64],
+    d: usize,
+    cycle: &[f64],
+    release: usize,
+    threshold: f64,
+    dt_s: f64,
+) -> Result<Response> {
+    if d == 0 || a.len() != b.len() || !a.len().is_multiple_of(d) || cycle.is_empty() || !cycle.len().is_multiple_of(d)
+    {
+        return Err(Error::Data(format!(
+            "runs of {} and {} values and a cycle of {} values are not frames of {d} outputs",
+            a.len(),
+            b.len(),
+            cycle.len()
+        )));
+    }
+    let p = cycle.len() / d;
+    let after = (a.len() / d).saturating_sub(release);
+    if after < 4 * p {
+        return Err(Error::Parameter(format!("{after} steps after the release are fewer than 4 cycles of {p}")));
+    }
+    let dist = orbit_distance(b, cycle, d, (p / 4).max(2));
+    let recovery_s = settling_index(&dist, release, threshold, p).map(|k| (k - release) as f64 * dt_s);
     let sd = {
         let m = cycle.iter().sum::<f64>() / cycle.len() as f64;
         (cycle.iter().map(|v| (v - m).powi(2)).sum::<f64>() / cycle.len() as f64).sqrt().max(f64::MIN_POSITIVE)
@@ -83,9 +98,9 @@ pub fn respond(
         .zip(b.chunks_exact(d))
         .map(|(fa, fb)| (fa.iter().zip(fb).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / d as f64).sqrt() / sd)
         .collect();
-    let rejoin_s = settling_index(&twin, release, threshold, p).map(|k| (k - release) as f64 * free.dt_s());
+    let rejoin_s = settling_index(&twin, release, threshold, p).map(|k| (k - release) as f64 * dt_s);
     let col = |x: &[f64], from: usize| -> Vec<f64> { x.iter().skip(from * d).step_by(d).copied().collect() };
     let tail = release + (after - 2 * p).min(after / 2);
-    let shift = lag(&col(&a, tail), &col(&b, tail), p / 2 + 1) / p as f64;
-    Ok(Response { recovery_s, rejoin_s, phase_shift_cycles: shift, perturbed: col(&b, 0), free: col(&a, 0) })
+    let shift = lag(&col(a, tail), &col(b, tail), p / 2 + 1) / p as f64;
+    Ok(Response { recovery_s, rejoin_s, phase_shift_cycles: shift, perturbed: col(b, 0), free: col(a, 0) })
 }

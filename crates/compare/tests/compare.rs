@@ -112,37 +112,24 @@ fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_wa
 
     // Held at +3 for 50 ms (6 steps) after 2 s.
     let push = Push { held: &[3.0], at: 240, hold: 6, after: 2000, threshold: 0.25 };
-    let fresh = |g: &mut dyn PatternGenerator| g.reset();
-    let r_clock = {
-        let (mut a, mut b) = (c.clone(), c.clone());
-        fresh(&mut a);
-        fresh(&mut b);
-        respond(&mut a, &mut b, &cycle, push).unwrap()
-    };
+    c.reset();
+    let r_clock = respond(&c, &cycle, push).unwrap();
     // A clock-driven network has nothing to remember: back on the orbit as
     // soon as the held samples leave the 25-sample distance window, in phase.
     assert!(r_clock.recovery_s.unwrap() <= 25.0 / RATE, "{:?}", r_clock.recovery_s);
     assert!(r_clock.phase_shift_cycles.abs() < 0.005);
     // ... and back on its unperturbed twin at the first free step.
     assert_eq!(r_clock.rejoin_s, Some(0.0));
-    let r_dmp = {
-        let (mut a, mut b) = (dg.clone(), dg.clone());
-        fresh(&mut a);
-        fresh(&mut b);
-        respond(&mut a, &mut b, &cycle, push).unwrap()
-    };
+    dg.reset();
+    let r_dmp = respond(&dg, &cycle, push).unwrap();
     // The DMP's spring–damper pulls back to the same clock: later, but in phase.
     let rd = r_dmp.recovery_s.unwrap();
     assert!(rd > r_clock.recovery_s.unwrap() && rd < 2.0, "DMP recovery {rd} s");
     assert!(r_dmp.phase_shift_cycles.abs() < 0.005);
     let rj = r_dmp.rejoin_s.unwrap();
     assert!(rj > 0.0 && rj < 1.0, "DMP rejoins its twin after {rj} s");
-    let r_res = {
-        let (mut a, mut b) = (rg.clone(), rg.clone());
-        fresh(&mut a);
-        fresh(&mut b);
-        respond(&mut a, &mut b, &cycle, push).unwrap()
-    };
+    rg.reset();
+    let r_res = respond(&rg, &cycle, push).unwrap();
     assert!(r_res.perturbed.iter().all(|v| v.is_finite()));
     assert_eq!(r_res.perturbed.len(), 240 + 6 + 2000);
 }
