@@ -1,18 +1,17 @@
 //! `cargo xtask bench`: speed of the reservoir CPG, each figure beside a
-//! measured floor (the time to stream the weight matrix once) and beside the
-//! ReservoirPy 0.4.2 figures of ../shared/research/anchors.md.
+//! measured floor (the time to stream the weight matrix once). The data is
+//! E1's, prepared from `experiments/e1-paper.toml`.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use cpg_mocap::cycle::{estimate_period, tile};
-use cpg_regression::{PenaltyGrid, Readout, RidgePath};
+use cpg_lab::prepare::{Prepared, prepare};
+use cpg_mocap::cycle::estimate_period;
+use cpg_regression::{PenaltyGrid, RidgePath};
 use cpg_reservoir::{
-    Generator, OutputChannel, Precision, Reservoir, ReservoirConfig, Sequence, TrainSettings, TrainedCpg, harvest,
+    Candidate, Generator, Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg, harvest,
     teacher_forced_states, train, validate,
 };
-
-use crate::experiments::{Femur, e1_data, femur};
 
 /// Median time of one call of `f`: calls are batched so that a sample lasts
 /// at least 5 ms, and up to 15 samples (or 3 s) are taken after a warm-up call.
@@ -76,14 +75,25 @@ fn config(n: usize, precision: Precision) -> anyhow::Result<cpg_reservoir::Check
     Ok(ReservoirConfig { n_neurons: n, precision, ..ReservoirConfig::wyffels_schrauwen_2009() }.check()?)
 }
 
-fn model(res: Reservoir, f: &Femur, settings: &TrainSettings) -> anyhow::Result<TrainedCpg> {
-    let tr = train(&res, &e1_data(f), settings)?;
-    let out = vec![OutputChannel { name: "lfemur.rx".into(), mean: f.mean_deg, std: f.std_deg }];
-    Ok(TrainedCpg::new(res, tr, settings.clone(), out, vec![], "35_01 lfemur.rx".into(), 120.0)?)
+fn model(res: Reservoir, f: &Prepared, settings: &TrainSettings) -> anyhow::Result<TrainedCpg> {
+    let tr = train(&res, &f.data, settings)?;
+    Ok(TrainedCpg::new(
+        res,
+        tr,
+        settings.clone(),
+        f.data.scoring.clone(),
+        f.outputs.clone(),
+        vec![],
+        f.description.clone(),
+        120.0,
+    )?)
 }
 
 pub fn run() -> anyhow::Result<()> {
-    let f = femur()?;
+    let e1 = cpg_lab::Config::load(&crate::root().join("experiments/e1-paper.toml"))?;
+    let f = prepare(&e1)?;
+    let cycle =
+        f.teachers.first().map(|t| t.cycle.clone()).ok_or_else(|| anyhow::anyhow!("E1 has no teacher cycle"))?;
     let threads = rayon::current_num_threads();
     println!("cargo xtask bench: {threads} threads, median of up to 15 samples each\n");
     let mut rows = Vec::new();
@@ -126,7 +136,7 @@ pub fn run() -> anyhow::Result<()> {
         });
         let (target, verdict) = if n == 300 && precision == Precision::F32 {
             let ok = step <= Duration::from_micros(10) && step <= floor * 2;
-            ("<= 10 µs and <= 2× floor (ReservoirPy 89 µs)", if ok { "met".into() } else { "MISSED".into() })
+            ("<= 10 µs and <= 2× floor", if ok { "met".into() } else { "MISSED".into() })
         } else {
             ("", String::new())
         };
@@ -139,7 +149,7 @@ pub fn run() -> anyhow::Result<()> {
             verdict,
         });
         if n == 300 {
-            let seq = Sequence::outputs_only(tile(&f.cycle, 1, 2000, 0));
+            let seq = cpg_reservoir::Sequence::outputs_only(f.data.train.outputs[..2000].to_vec());
             let x0 = vec![0.0; n];
             let h = measure(|| {
                 black_box(teacher_forced_states(&res, &x0, &seq).map(|s| s.len()).unwrap_or(0));
@@ -149,31 +159,31 @@ pub fn run() -> anyhow::Result<()> {
                 time: h,
                 floor: Some(floor),
                 steps: 2000.0,
-                target: "(ReservoirPy 0.10 s for 2200)",
+                target: "",
                 verdict: String::new(),
             });
 
             // The sweep: all 91 penalties from one factorisation, each validated by a
             // 500-step noisy free run.
-            let data = e1_data(&f);
+            let data = &f.data;
             let hv = harvest(&res, &data.train, 200)?;
             for draws in [1, 5] {
                 let settings = TrainSettings { n_noise_draws: draws, ..TrainSettings::wyffels_schrauwen_2009() };
-                let t = measure(|| {
-                    let path = RidgePath::new(hv.states.as_ref(), hv.targets.as_ref()).ok();
-                    let readouts: Vec<Readout> = path
-                        .iter()
-                        .flat_map(|p| settings.penalties.values().iter().filter_map(|&l| p.solve(l).ok()))
-                        .collect();
-                    black_box(
-                        validate(&res, &readouts, &data.warmup, &data.validation, &settings).map(|c| c.0.len()).ok(),
-                    );
-                });
+                let t =
+                    measure(|| {
+                        let path = RidgePath::new(hv.states.as_ref(), hv.targets.as_ref()).ok();
+                        let candidates: Vec<Candidate> =
+                            path.iter()
+                                .flat_map(|p| {
+                                    settings.penalties.values().iter().filter_map(|&l| {
+                                        p.solve(l).ok().map(|readout| Candidate { penalty: l, readout })
+                                    })
+                                })
+                                .collect();
+                        black_box(validate(&res, &candidates, data, &settings).map(|c| c.0.len()).ok());
+                    });
                 let (target, verdict) = if draws == 1 && precision == Precision::F32 {
-                    (
-                        "< 0.5 s (ReservoirPy 5.4 s)",
-                        if t < Duration::from_millis(500) { "met".into() } else { "MISSED".into() },
-                    )
+                    ("< 0.5 s", if t < Duration::from_millis(500) { "met".into() } else { "MISSED".into() })
                 } else {
                     ("", String::new())
                 };
@@ -188,7 +198,7 @@ pub fn run() -> anyhow::Result<()> {
             }
             let settings = TrainSettings::wyffels_schrauwen_2009();
             let t = measure(|| {
-                black_box(train(&res, &data, &settings).map(|t| t.chosen).ok());
+                black_box(train(&res, data, &settings).map(|t| t.penalty).ok());
             });
             rows.push(Row {
                 what: format!("training end to end, E1, 5 draws ({tag})"),
@@ -214,7 +224,7 @@ pub fn run() -> anyhow::Result<()> {
         "| precision | chosen penalty | first-500 NMSE | max |f32 − f64| over 500 steps (deg) | period at 100k (frames) | half range at 100k (z) |"
     );
     println!("|---|---:|---:|---:|---:|---:|");
-    let teacher = tile(&f.cycle, 1, 500, 2200);
+    let teacher = f.data.validation.outputs.clone();
     let var = {
         let m = teacher.iter().sum::<f64>() / 500.0;
         teacher.iter().map(|t| (t - m).powi(2)).sum::<f64>() / 500.0
@@ -238,6 +248,6 @@ pub fn run() -> anyhow::Result<()> {
     for (p, pen, nmse, _, period, hr) in &runs {
         println!("| {p:?} | {pen:e} | {nmse:.4} | {diff:.2e} | {period:.2} | {hr:.3} |");
     }
-    println!("\nteacher cycle: {} frames, half range {:.3} (z)", f.cycle.len(), cpg_mocap::cycle::half_range(&f.cycle));
+    println!("\nteacher cycle: {} frames, half range {:.3} (z)", cycle.len(), cpg_mocap::cycle::half_range(&cycle));
     Ok(())
 }

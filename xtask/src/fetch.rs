@@ -38,6 +38,9 @@ impl Args {
     }
 }
 
+/// The record of optional files that could not be fetched, in the data directory.
+pub const UNAVAILABLE: &str = ".unavailable";
+
 /// Where CMU serves its files.
 pub const CMU_BASE_URL: &str = "http://mocap.cs.cmu.edu/subjects";
 
@@ -141,8 +144,24 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
         bar.set_prefix(format!("subject {s}"));
         let (mut n_ok, mut n_new, mut n_unverified) = (0, 0, 0);
+        // Optional files that could not be had once are not asked for again
+        // (unless --download asks explicitly): the record says so.
+        let record = dest.join(UNAVAILABLE);
+        let known_missing: Vec<String> = if args.download.is_some() {
+            Vec::new()
+        } else {
+            std::fs::read_to_string(&record)
+                .map(|t| t.lines().map(|l| l.split('\t').next().unwrap_or("").to_owned()).collect())
+                .unwrap_or_default()
+        };
+        let mut missing: Vec<(String, String)> = Vec::new();
+        let mut skipped = 0;
         for e in &entries {
             bar.set_message(e.file.clone());
+            if e.optional() && known_missing.contains(&e.file) && !dest.join(&e.file).is_file() {
+                skipped += 1;
+                continue;
+            }
             // A file the directory does not hold (86_01.amc) is downloaded from CMU.
             let src = match &source {
                 Source::Dir(d) if !d.join(&e.file).is_file() => Source::Http(CMU_BASE_URL.to_owned()),
@@ -152,9 +171,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 Ok(Outcome::Present) => n_ok += 1,
                 Ok(Outcome::Verified) => n_new += 1,
                 Ok(Outcome::Unverified) => n_unverified += 1,
-                Err(err) if e.optional() => {
-                    bar.suspend(|| eprintln!("warning: optional {} not fetched: {err:#}", e.file))
-                }
+                Err(err) if e.optional() => missing.push((e.file.clone(), format!("{err:#}"))),
                 Err(err) => {
                     bar.suspend(|| eprintln!("error: {}: {err:#}", e.file));
                     failures.push(e.file.clone());
@@ -162,6 +179,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
         bar.finish_and_clear();
+        if !missing.is_empty() {
+            let names: Vec<&str> = missing.iter().map(|m| m.0.as_str()).collect();
+            eprintln!(
+                "note: optional {} could not be fetched ({}). The report runs without them; to use them, put them in {} (they are checked against MANIFEST.tsv). Not asking the network for them again: delete {} or run `cargo xtask fetch-data --download` to retry.",
+                names.join(", "),
+                missing[0].1,
+                dest.display(),
+                record.display()
+            );
+            let text: String =
+                missing.iter().map(|(f, why)| format!("{f}\t{}\n", why.replace(['\n', '\t'], " "))).collect();
+            if let Err(e) = std::fs::create_dir_all(&dest).and_then(|_| std::fs::write(&record, text)) {
+                eprintln!("warning: could not write {}: {e}", record.display());
+            }
+        }
+        if skipped > 0 && !args.quiet {
+            eprintln!(
+                "subject {s}: {skipped} optional file(s) skipped, known to be unavailable ({})",
+                record.display()
+            );
+        }
         let from = match &source {
             Source::Dir(d) => d.display().to_string(),
             Source::Http(u) => u.clone(),

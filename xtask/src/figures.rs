@@ -24,12 +24,22 @@ pub enum Look {
     Bars,
     /// Points only (small black circles), e.g. values at a few settings.
     Marks,
+    /// A value imposed from outside (a held output): thick dark red.
+    Held,
 }
 
-/// One curve.
+/// One curve; `label` names it in the panel's legend.
 pub struct Curve {
     pub points: Vec<(f64, f64)>,
     pub look: Look,
+    pub label: String,
+}
+
+impl Curve {
+    /// A curve with its legend label.
+    pub fn new(look: Look, label: impl Into<String>, points: Vec<(f64, f64)>) -> Curve {
+        Curve { points, look, label: label.into() }
+    }
 }
 
 /// One panel of a figure.
@@ -108,33 +118,46 @@ where
             .axis_desc_style(("sans-serif", 13))
             .draw()
             .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let gray = RGBColor(128, 128, 128);
+        let light = RGBColor(185, 185, 185);
+        let red = RGBColor(170, 20, 20);
         for c in &panel.curves {
-            let gray = RGBColor(128, 128, 128);
-            let light = RGBColor(185, 185, 185);
-            let res =
-                match c.look {
-                    Look::Teacher => chart
-                        .draw_series(DashedLineSeries::new(c.points.iter().copied(), 6, 4, gray.stroke_width(2)))
-                        .map(|_| ()),
-                    Look::Control => chart
-                        .draw_series(DashedLineSeries::new(c.points.iter().copied(), 5, 4, light.stroke_width(2)))
-                        .map(|_| ()),
-                    Look::Model => {
-                        chart.draw_series(LineSeries::new(c.points.iter().copied(), BLACK.stroke_width(1))).map(|_| ())
-                    }
-                    Look::Data => {
-                        chart.draw_series(LineSeries::new(c.points.iter().copied(), light.stroke_width(1))).map(|_| ())
-                    }
-                    Look::Bars => chart
-                        .draw_series(c.points.iter().map(|&(x, y)| {
-                            Rectangle::new([(x - 0.4, 0.0), (x + 0.4, y)], RGBColor(90, 90, 90).filled())
-                        }))
-                        .map(|_| ()),
-                    Look::Marks => {
-                        chart.draw_series(c.points.iter().map(|&p| Circle::new(p, 3, BLACK.filled()))).map(|_| ())
-                    }
-                };
-            res.map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let style = match c.look {
+                Look::Teacher => gray.stroke_width(2),
+                Look::Control | Look::Data => light.stroke_width(2),
+                Look::Model | Look::Marks => BLACK.stroke_width(1),
+                Look::Bars => RGBColor(90, 90, 90).filled(),
+                Look::Held => red.stroke_width(3),
+            };
+            let pts = c.points.iter().copied();
+            let drawn = match c.look {
+                Look::Teacher => chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)),
+                Look::Control => chart.draw_series(DashedLineSeries::new(pts, 5, 4, style)),
+                Look::Model | Look::Data | Look::Held => chart.draw_series(LineSeries::new(pts, style)),
+                Look::Bars => chart.draw_series(
+                    c.points
+                        .iter()
+                        .map(|&(x, y)| Rectangle::new([(x - 0.4, 0.0), (x + 0.4, y)], style))
+                        .collect::<Vec<_>>(),
+                ),
+                Look::Marks => {
+                    chart.draw_series(c.points.iter().map(|&p| Circle::new(p, 3, BLACK.filled())).collect::<Vec<_>>())
+                }
+            }
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            if !c.label.is_empty() {
+                drawn.label(c.label.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+            }
+        }
+        if panel.curves.iter().any(|c| !c.label.is_empty()) {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(160, 160, 160))
+                .label_font(("sans-serif", 12))
+                .draw()
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         }
     }
     area.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;

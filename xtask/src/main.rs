@@ -2,13 +2,12 @@
 //! `.cargo/config.toml`), so training and evaluation never run in a debug build.
 
 mod bench;
-mod centralized_eval;
 mod ci;
-mod evaluate;
-mod experiments;
 mod fetch;
 mod figures;
 mod fuzz;
+mod report;
+mod train;
 
 use std::path::PathBuf;
 
@@ -16,7 +15,7 @@ use clap::{Parser, Subcommand};
 
 /// Project automation for the cpg workspace.
 #[derive(Debug, Parser)]
-#[command(name = "cargo xtask", about)]
+#[command(name = "cargo xtask", bin_name = "cargo xtask", about)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -32,8 +31,9 @@ enum Command {
     /// failed, truncated or corrupt transfer leaves nothing behind. Files that
     /// are already present and verify are left alone.
     FetchData(fetch::Args),
-    /// The checks CI runs: fmt, clippy (warnings denied), the tests, docs, and the
-    /// crate layering rules (checked with `cargo tree`).
+    /// The checks CI runs, in this order: fmt, clippy (warnings denied), the
+    /// crate layering rules (checked with `cargo tree`), the docs (warnings
+    /// denied), and every test (after fetching the data).
     Ci,
     /// Fetch the data if needed, then run every test of the workspace.
     Test {
@@ -41,13 +41,14 @@ enum Command {
         #[arg(trailing_var_arg = true)]
         args: Vec<String>,
     },
-    /// Train an experiment's CPG and save it under models/ (E1 so far: the
-    /// left femur of 35_01), then check it in a 900 s free run.
-    Train(experiments::TrainArgs),
-    /// Run every experiment of wyffels & Schrauwen (2009) and write report/:
-    /// REPORT.md (each metric beside the paper's claim), metrics.json, the
-    /// figures (PNG and SVG) and HOAP-2 joint trajectories.
-    Evaluate(evaluate::Args),
+    /// Train experiment configurations of experiments/ and save their models
+    /// (the same models the report trains; `cpg train --config` does the same for one file).
+    Train(train::TrainArgs),
+    /// Run every experiment configuration and write report/: REPORT.md (a
+    /// summary of every claim of both papers, each measured beside the
+    /// paper's, with its rule), metrics.json, the figures (PNG and SVG) and
+    /// HOAP-2 joint trajectories.
+    Evaluate(report::Args),
     /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
     /// training, each beside a measured floor, and f32 against f64 accuracy.
     Bench,
@@ -70,8 +71,8 @@ fn main() -> std::process::ExitCode {
         Command::Test { args } => ci::test(&args),
         Command::Fuzz { seconds } => fuzz::run(seconds),
         Command::Bench => bench::run(),
-        Command::Train(args) => experiments::run_train(&args),
-        Command::Evaluate(args) => evaluate::run_all(&args),
+        Command::Train(args) => train::run(&args),
+        Command::Evaluate(args) => report::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -86,4 +87,40 @@ fn main() -> std::process::ExitCode {
 pub fn root() -> PathBuf {
     let here = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     here.parent().map(PathBuf::from).unwrap_or(here)
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// `cargo xtask --help` and each task's help, pinned (UPDATE_SNAPSHOTS=1 rewrites them).
+    #[test]
+    fn help_texts_match_their_snapshots() {
+        let dir = super::root().join("xtask/tests/help");
+        let mut cmd = super::Cli::command().term_width(100);
+        cmd.build();
+        let mut texts = vec![("xtask".to_owned(), cmd.render_long_help().to_string())];
+        for sub in cmd.get_subcommands_mut() {
+            let name = format!("xtask-{}", sub.get_name());
+            texts.push((name, sub.render_long_help().to_string()));
+        }
+        let mut changed = Vec::new();
+        for (name, now) in texts {
+            let path = dir.join(format!("{name}.txt"));
+            if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
+                std::fs::write(&path, &now).unwrap();
+                continue;
+            }
+            if std::fs::read_to_string(&path).unwrap_or_default() != now {
+                changed.push(name);
+            }
+        }
+        assert!(changed.is_empty(), "help texts changed (UPDATE_SNAPSHOTS=1 to accept): {changed:?}");
+    }
+
+    #[test]
+    fn usage_says_cargo_xtask() {
+        let h = super::Cli::command().render_usage().to_string();
+        assert!(h.contains("cargo xtask"), "{h}");
+    }
 }

@@ -1,12 +1,10 @@
 //! `cpg`: learn rhythmic motion from motion capture and play it back as a
-//! central pattern generator. This binary is glue: the work is in the library crates.
+//! central pattern generator. This binary is glue: it parses arguments and
+//! calls the library crates (`cpg-lab` for training, control schedules and
+//! measures; `cpg-mocap`, `cpg-reservoir`, `cpg-hoap2` below it).
 
-mod fk;
-mod inspect;
-mod robot;
-mod train;
-
-use cpg_cli::{evaluate, generate};
+mod commands;
+mod output;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,8 +12,12 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 /// Learn rhythmic human motion from motion capture and play it back as a CPG.
+///
+/// Typical use: `cpg train --config experiments/e1.toml`, then `cpg generate`,
+/// `cpg hoap2` or `cpg evaluate` with the model it writes. The configuration
+/// format is documented in docs/config.md.
 #[derive(Debug, Parser)]
-#[command(name = "cpg", version, about, long_about = None)]
+#[command(name = "cpg", version, about, long_about)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -56,30 +58,36 @@ enum Command {
         #[arg(long, default_value_t = 120.0)]
         rate_hz: f64,
     },
-    /// Train a CPG on your own mocap data, as described by a TOML file.
+    /// Train a CPG as a TOML configuration describes and write the model file.
     ///
     /// The file names the skeleton, the motion segments (each with its control
-    /// values), the channels to learn, the reservoir (a preset plus overrides) and
-    /// the penalty search; see examples/walk22.toml. Writes a model file.
+    /// values), the channels to learn (names, globs such as lfemur.*, or the
+    /// groups legs, arms, hoap2), the reservoir (a preset plus overrides) and
+    /// how the penalty is chosen. Every field is documented in docs/config.md;
+    /// experiments/ holds the configurations of the report.
     Train {
         /// The configuration file.
         #[arg(long, short)]
         config: PathBuf,
-        /// Write the model here instead of the path in the file's output section.
+        /// Write the model here instead of the path in the file's [output] section.
         #[arg(long, short)]
         output: Option<PathBuf>,
     },
     /// Run a trained CPG freely and write what it generates (CSV or AMC).
     ///
     /// CSV columns: time_s, then one per output channel in the training units
-    /// (degrees for rotation channels, suffix _deg).
+    /// (degrees for rotation channels, suffix _deg). AMC uses the skeleton the
+    /// model was trained from.
     Generate {
         #[command(flatten)]
         run: RunArgs,
-        /// csv, or amc (playable in any ASF/AMC viewer; needs --skeleton).
+        /// Seconds to generate.
+        #[arg(long, default_value_t = 30.0)]
+        seconds: f64,
+        /// csv, or amc (playable in any ASF/AMC viewer).
         #[arg(long, default_value = "csv")]
         format: String,
-        /// The skeleton for --format amc.
+        /// A skeleton (.asf) for --format amc instead of the one stored in the model.
         #[arg(long)]
         skeleton: Option<PathBuf>,
         /// Output file (written atomically).
@@ -88,31 +96,47 @@ enum Command {
     },
     /// Run a trained CPG and write HOAP-2 joint commands (CSV: time_s, then the joints in rad).
     ///
-    /// Channels are mapped to joints by a TSV map (default assets/hoap2/cmu35_to_hoap2.tsv),
-    /// clamped to the URDF's limits (default assets/hoap2/hoap2.urdf), and a table of how
-    /// often and how far each joint hit its limits is printed.
+    /// Channels are mapped to joints by a TSV map, clamped to the URDF's
+    /// position limits, and a table of how often and how far each joint hit
+    /// its limits is printed.
     Hoap2 {
         #[command(flatten)]
         run: RunArgs,
-        /// Resample to this rate (e.g. 1000 for a 1 kHz servo loop); default: the model's rate.
+        /// Seconds to generate.
+        #[arg(long, default_value_t = 30.0)]
+        seconds: f64,
+        /// Resample to this rate (e.g. 1000 for a 1 kHz servo loop) [default: the model's rate].
         #[arg(long)]
         rate_hz: Option<f64>,
         /// The robot description.
-        #[arg(long)]
-        urdf: Option<PathBuf>,
+        #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
+        urdf: PathBuf,
         /// The channel-to-joint map.
-        #[arg(long)]
-        map: Option<PathBuf>,
+        #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
+        map: PathBuf,
         /// Output CSV (written atomically).
         #[arg(long, short)]
         output: PathBuf,
     },
-    /// Stability of a trained CPG: a long free run against the teacher's cycle
-    /// (period, amplitude, phase-aligned error) and the recovery from a 50 ms
-    /// perturbation after 2 s (the paper's Fig. 2).
+    /// Judge a trained CPG: a long free run and a push, against its teachers.
+    ///
+    /// For each control setting the model was taught (or the one given by
+    /// --control), a free run of --seconds is judged against that setting's
+    /// teacher: the period and every amplitude at the end (accurate: within
+    /// 1 % and 5 %), whether the rhythm still changes between the first minute
+    /// and the end (converged), and the recovery from the paper's push (the
+    /// fed-back output held at the cycle's maximum + 2 σ for 50 ms after 2 s),
+    /// against the teacher's orbit and against an unperturbed twin. The
+    /// definitions are those of the report (cpg_lab::measure).
     Evaluate {
         #[command(flatten)]
         run: RunArgs,
+        /// Seconds of free run (the paper's long run is 900).
+        #[arg(long, default_value_t = 900.0)]
+        seconds: f64,
+        /// Print the measures as JSON.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -122,9 +146,6 @@ struct RunArgs {
     /// The model file (from `cpg train` or `cargo xtask train`).
     #[arg(long, short)]
     model: PathBuf,
-    /// Seconds to generate [default: 30; evaluate: 900, the paper's long run].
-    #[arg(long)]
-    seconds: Option<f64>,
     /// Constant control values, comma-separated, one per control input (e.g. 1,0).
     #[arg(long, allow_hyphen_values = true)]
     control: Option<String>,
@@ -136,30 +157,30 @@ struct RunArgs {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Inspect { file, skeleton, rate_hz } => inspect::run(&file, skeleton.as_deref(), rate_hz),
-        Command::Fk { amc, skeleton, output, rate_hz } => fk::run(&amc, &skeleton, &output, rate_hz),
-        Command::Train { config, output } => train::run(&config, output.as_deref()),
-        Command::Generate { run, format, skeleton, output } => generate::run(
+        Command::Inspect { file, skeleton, rate_hz } => commands::inspect(&file, skeleton.as_deref(), rate_hz),
+        Command::Fk { amc, skeleton, output, rate_hz } => commands::fk(&amc, &skeleton, &output, rate_hz),
+        Command::Train { config, output } => commands::train(&config, output.as_deref()),
+        Command::Generate { run, seconds, format, skeleton, output } => commands::generate(
             &run.model,
-            run.seconds.unwrap_or(30.0),
+            seconds,
             run.control.as_deref(),
             run.control_file.as_deref(),
             &format,
-            skeleton.as_ref(),
+            skeleton.as_deref(),
             &output,
         ),
-        Command::Hoap2 { run, rate_hz, urdf, map, output } => robot::run(robot::Args {
+        Command::Hoap2 { run, seconds, rate_hz, urdf, map, output } => commands::hoap2(commands::Hoap2 {
             model: &run.model,
-            seconds: run.seconds.unwrap_or(30.0),
+            seconds,
             control: run.control.as_deref(),
             control_file: run.control_file.as_deref(),
             rate_hz,
-            urdf: urdf.as_ref(),
-            map: map.as_ref(),
+            urdf: &urdf,
+            map: &map,
             output: &output,
         }),
-        Command::Evaluate { run } => {
-            evaluate::run(&run.model, run.seconds.unwrap_or(900.0), run.control.as_deref(), run.control_file.as_deref())
+        Command::Evaluate { run, seconds, json } => {
+            commands::evaluate(&run.model, seconds, run.control.as_deref(), run.control_file.as_deref(), json)
         }
     };
     match result {

@@ -136,15 +136,13 @@ fn example_config_trains_generates_and_drives_hoap2() {
         "1".as_ref(),
         "--format".as_ref(),
         "amc".as_ref(),
-        "--skeleton".as_ref(),
-        cmu("35.asf").as_os_str(),
         "-o".as_ref(),
         amc.as_os_str(),
     ]));
     let sk = cpg_mocap::Skeleton::from_file(cmu("35.asf")).unwrap();
     let m = cpg_mocap::Motion::from_amc_file(&amc, &sk, 120.0).unwrap();
     assert_eq!(m.n_frames(), 120);
-    assert_eq!(m.n_channels(), 62, "every skeleton channel is written, the unlearnt ones at 0");
+    assert_eq!(m.n_channels(), 62, "every skeleton channel is written (the model remembers its skeleton)");
 
     let joints = dir.path().join("hoap2.csv");
     let log = ok(&cpg(&[
@@ -179,14 +177,25 @@ fn example_config_trains_generates_and_drives_hoap2() {
     }
 
     let log = ok(&cpg(&["evaluate".as_ref(), "-m".as_ref(), model.as_os_str(), "--seconds".as_ref(), "60".as_ref()]));
-    assert!(log.contains("period at the end") && log.contains("perturbation"), "{log}");
+    assert!(log.contains("period at the end") && log.contains("push") && log.contains("converged"), "{log}");
+    let json = ok(&cpg(&[
+        "evaluate".as_ref(),
+        "-m".as_ref(),
+        model.as_os_str(),
+        "--seconds".as_ref(),
+        "60".as_ref(),
+        "--json".as_ref(),
+    ]));
+    let v: serde_json::Value = serde_json::from_str(json.trim_end_matches(|c| c != ']')).unwrap();
+    assert_eq!(v.as_array().map(|a| a.len()), Some(1), "one teacher");
+    assert!(v[0]["stability"]["end"]["amplitude"].as_array().is_some_and(|a| a.len() == 22));
 }
 
 #[test]
 fn config_and_model_errors_say_what_is_valid() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.toml");
-    let base = std::fs::read_to_string(repo().join("examples/femur.toml")).unwrap();
+    let base = std::fs::read_to_string(repo().join("experiments/e1-paper.toml")).unwrap();
     let fix_paths = |s: String| {
         s.replace("../data/cmu35/35.asf", &cmu("35.asf").display().to_string())
             .replace("../data/cmu35/35_01.amc", &cmu("35_01.amc").display().to_string())
@@ -196,10 +205,25 @@ fn config_and_model_errors_say_what_is_valid() {
         cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str(), "-o".as_ref(), dir.path().join("m.cpg").as_os_str()]);
     let err = text(&o).1;
     assert_eq!(o.status.code(), Some(2));
-    assert!(err.contains("unknown channel 'lfemur.rq'") && err.contains("lfemur.rx"), "{err}");
+    assert!(err.contains("data.channels") && err.contains("'lfemur.rq' is not a channel"), "{err}");
     std::fs::write(&bad, fix_paths(base.replace("seed = 1", "seed = 1\nleak = 0.2"))).unwrap();
     let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;
-    assert!(err.contains("unknown field `leak`"), "{err}");
+    assert!(err.contains("unknown field `leak`") && err.contains("reservoir"), "{err}");
+    // A field of the wrong shape names the field, its line and what it takes, in the file's words.
+    std::fs::write(
+        &bad,
+        fix_paths(base.replace("penalty_log10 = { start = 1, step = 0.1, stop = -8 }", "penalty_log10 = [1, -8]")),
+    )
+    .unwrap();
+    let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;
+    let line = base.lines().position(|l| l.starts_with("penalty_log10")).unwrap() + 1;
+    assert!(
+        err.contains("`training.penalty_log10`")
+            && err.contains("{start, step, stop}")
+            && err.contains(&format!("bad.toml:{line}")),
+        "{err}"
+    );
+    assert!(!err.contains("PenaltyRange"), "no internal type names: {err}");
     std::fs::write(&bad, fix_paths(base.replace("seed = 1", "seed = 1\nleak_rate = 1.5"))).unwrap();
     let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;
     assert!(err.contains("leak_rate") && err.contains("(0, 1]"), "{err}");
@@ -279,7 +303,7 @@ model = "gaits.cpg"
     let o = run(&[]);
     assert!(text(&o).1.contains("control inputs [u_walk, u_run]"), "{}", text(&o).1);
     let o = run(&["--control".as_ref(), "1".as_ref()]);
-    assert!(text(&o).1.contains("--control has 1 values"), "{}", text(&o).1);
+    assert!(text(&o).1.contains("1 control values; the model's control inputs are [u_walk, u_run]"), "{}", text(&o).1);
     ok(&run(&["--control".as_ref(), "0,1".as_ref()]));
     let constant = std::fs::read_to_string(&out).unwrap();
     assert_eq!(constant.lines().count(), 1 + 240);
@@ -294,4 +318,17 @@ model = "gaits.cpg"
     std::fs::write(&file, "u_walk,u_run\n0,1\n0,x\n").unwrap();
     let o = run(&["--control-file".as_ref(), file.as_os_str()]);
     assert!(text(&o).1.contains("u.csv:3: expected 2 finite numbers"), "{}", text(&o).1);
+}
+
+/// `cpg train --config experiments/e4.toml` writes exactly the model the
+/// report's E4 trains for its first seed.
+#[test]
+fn cpg_train_reproduces_the_reports_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("e4.cpg");
+    let config = repo().join("experiments/e4.toml");
+    ok(&cpg(&["train".as_ref(), "-c".as_ref(), config.as_os_str(), "-o".as_ref(), out.as_os_str()]));
+    let c = cpg_lab::Config::load(&config).unwrap();
+    let (_, models) = cpg_lab::experiment::train_seeds(&c, &[c.reservoir.seed], &cpg_lab::experiment::Quiet).unwrap();
+    assert_eq!(std::fs::read(&out).unwrap(), models[0].to_bytes().unwrap());
 }

@@ -15,7 +15,7 @@ use crate::measures::{Errors, errors};
 use crate::{Error, Result};
 
 /// A network size: `M` centers and `N` satellites.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Spec {
     /// Number of centers (oscillators), `M`.
     pub centers: usize,

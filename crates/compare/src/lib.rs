@@ -16,15 +16,15 @@
 //!   and ErrABS, with phase alignment.
 //! - [`fit`]: the centralized fitting recipe used in every comparison, the
 //!   segmented fit glued by the switching module, and the Table 1 table.
-//! - [`perturb`]: what a generator does after its outputs were held away
-//!   from the rhythm.
+//!
+//! How a generator answers a push is measured one level up, in `cpg-lab`,
+//! with the same definition as the reservoir's E3.
 //!
 //! The family crates do not know each other or this crate; each can be used alone.
 
 pub mod fit;
 mod generator;
 pub mod measures;
-pub mod perturb;
 pub mod positions;
 
 pub use generator::{CentralizedCpg, Clock, DmpCpg, PatternGenerator, ReservoirCpg, SwitchedCpg, run};

@@ -16,7 +16,7 @@
 use crate::{Error, Result};
 
 /// The error measures of one comparison.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Errors {
     /// Mean 3-D distance over points and frames, mm.
     pub mean_mm: f64,

@@ -7,7 +7,6 @@ use std::f64::consts::PI;
 use cpg_centralized::{Basis, CentralizedNet};
 use cpg_compare::fit::{Spec, starts_from_paper, table1};
 use cpg_compare::measures::{align, errors, per_coordinate};
-use cpg_compare::perturb::{Push, respond};
 use cpg_compare::positions::glue;
 use cpg_compare::{CentralizedCpg, Clock, DmpCpg, PatternGenerator, ReservoirCpg, run};
 use cpg_dmp::{DmpConfig, RhythmicDmp};
@@ -15,7 +14,7 @@ use cpg_mocap::data::{Subject, find};
 use cpg_mocap::{Motion, Skeleton};
 use cpg_regression::PenaltyGrid;
 use cpg_reservoir::{
-    OutputChannel, Reservoir, ReservoirConfig, Sequence, TrainSettings, TrainedCpg, TrainingData, train,
+    OutputChannel, Reservoir, ReservoirConfig, Scoring, Sequence, TrainSettings, TrainedCpg, TrainingData, train,
 };
 
 /// Two points moving on circles; the model is the data shifted by (3, 4, 0) mm.
@@ -66,26 +65,27 @@ fn rhythm(t: usize) -> Vec<f64> {
 
 fn reservoir_model() -> TrainedCpg {
     // The signal at 1 Hz steps: one period is 100 samples.
-    let data = TrainingData {
-        train: Sequence::outputs_only(rhythm(1500)),
-        warmup: Sequence::outputs_only(rhythm(1500)),
-        validation: Sequence::outputs_only(rhythm(1800)[1500..].to_vec()),
-    };
+    let data = TrainingData::nmse(
+        Sequence::outputs_only(rhythm(1500)),
+        Sequence::outputs_only(rhythm(1500)),
+        Sequence::outputs_only(rhythm(1800)[1500..].to_vec()),
+    );
     let settings = TrainSettings {
         washout: 200,
         penalties: PenaltyGrid::log10_range(1.0, 0.5, -8.0).unwrap(),
         noise_variance: 1e-4,
         n_noise_draws: 2,
         noise_seed: 7,
+        ..TrainSettings::wyffels_schrauwen_2009()
     };
     let res = Reservoir::new(&ReservoirConfig::wyffels_schrauwen_2009().check().unwrap(), 1).unwrap();
     let tr = train(&res, &data, &settings).unwrap();
     let out = vec![OutputChannel { name: "rhythm".into(), mean: 0.0, std: 1.0 }];
-    TrainedCpg::new(res, tr, settings, out, vec![], "test rhythm".into(), RATE).unwrap()
+    TrainedCpg::new(res, tr, settings, Scoring::default(), out, vec![], "test rhythm".into(), RATE).unwrap()
 }
 
 #[test]
-fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_way() {
+fn every_family_runs_through_the_same_interface() {
     let x = rhythm(400);
     let cycle = x[..100].to_vec();
     let net = CentralizedNet::fit(vec![2.0 * PI * 1.2], 16, Basis::Rbf { b: 2.0 }, &x, 1, RATE).unwrap();
@@ -110,28 +110,9 @@ fn every_family_runs_through_the_same_interface_and_answers_a_push_in_its_own_wa
     assert!(c.step(&mut [0.0; 2]).is_err());
     assert!(ReservoirCpg::new(model.clone(), vec![1.0]).is_err());
 
-    // Held at +3 for 50 ms (6 steps) after 2 s.
-    let push = Push { held: &[3.0], at: 240, hold: 6, after: 2000, threshold: 0.25 };
+    // After a reset, a generator starts over.
     c.reset();
-    let r_clock = respond(&c, &cycle, push).unwrap();
-    // A clock-driven network has nothing to remember: back on the orbit as
-    // soon as the held samples leave the 25-sample distance window, in phase.
-    assert!(r_clock.recovery_s.unwrap() <= 25.0 / RATE, "{:?}", r_clock.recovery_s);
-    assert!(r_clock.phase_shift_cycles.abs() < 0.005);
-    // ... and back on its unperturbed twin at the first free step.
-    assert_eq!(r_clock.rejoin_s, Some(0.0));
-    dg.reset();
-    let r_dmp = respond(&dg, &cycle, push).unwrap();
-    // The DMP's spring–damper pulls back to the same clock: later, but in phase.
-    let rd = r_dmp.recovery_s.unwrap();
-    assert!(rd > r_clock.recovery_s.unwrap() && rd < 2.0, "DMP recovery {rd} s");
-    assert!(r_dmp.phase_shift_cycles.abs() < 0.005);
-    let rj = r_dmp.rejoin_s.unwrap();
-    assert!(rj > 0.0 && rj < 1.0, "DMP rejoins its twin after {rj} s");
-    rg.reset();
-    let r_res = respond(&rg, &cycle, push).unwrap();
-    assert!(r_res.perturbed.iter().all(|v| v.is_finite()));
-    assert_eq!(r_res.perturbed.len(), 240 + 6 + 2000);
+    assert_eq!(run(&mut c, 400).unwrap(), net.generate(400, RATE));
 }
 
 fn positions(trial: &str, frames: usize) -> cpg_mocap::Positions {

@@ -317,7 +317,7 @@ impl ChannelMap {
 }
 
 /// How one joint fared against its limits.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct JointClamp {
     /// Joint name.
     pub joint: String,
@@ -334,7 +334,7 @@ pub struct JointClamp {
 }
 
 /// Clamping statistics of a mapping, per joint.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct ClampReport {
     /// One entry per joint, in trajectory order.
     pub joints: Vec<JointClamp>,

@@ -1,10 +1,11 @@
 //! Finding the CMU data files at run time.
 //!
 //! The motion files are never part of the repository. They are looked up, in
-//! order, in `$CPG_DATA_DIR`, in `data/cmu35/` (relative to the working
-//! directory, then to the workspace root), and in `../shared/data/cmu/35`
-//! (the read-only share beside the project). The first directory that holds
-//! the requested file wins.
+//! order, in `$CPG_DATA_DIR`, then in `data/cmu35/` (or `data/cmu86/`) in the
+//! current directory and in each of its ancestors, the way git finds `.git`:
+//! from anywhere inside a checkout whose `data/` has been filled (`cargo xtask
+//! fetch-data`), the files are found. The first directory that holds the
+//! requested file wins. This crate knows nothing else about where a checkout is.
 
 use std::path::{Path, PathBuf};
 
@@ -20,33 +21,35 @@ pub enum Subject {
 }
 
 impl Subject {
-    fn dirs(self) -> (&'static str, &'static str) {
+    /// The directory name under `data/`: `cmu35`, `cmu86`.
+    pub fn dir_name(self) -> &'static str {
         match self {
-            Subject::S35 => ("data/cmu35", "../shared/data/cmu/35"),
-            Subject::S86 => ("data/cmu86", "../shared/data/cmu/86"),
+            Subject::S35 => "cmu35",
+            Subject::S86 => "cmu86",
         }
     }
 }
 
 /// Directories searched for a subject's files, in order.
 pub fn search_dirs(subject: Subject) -> Vec<PathBuf> {
-    let (local, shared) = subject.dirs();
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut dirs = Vec::new();
     if let Some(d) = std::env::var_os("CPG_DATA_DIR") {
         dirs.push(PathBuf::from(d));
     }
-    dirs.push(PathBuf::from(local));
-    dirs.push(workspace.join(local));
-    dirs.push(PathBuf::from(shared));
-    dirs.push(workspace.join(shared));
+    if let Ok(cwd) = std::env::current_dir() {
+        dirs.extend(cwd.ancestors().map(|a| a.join("data").join(subject.dir_name())));
+    }
     dirs
 }
 
 /// Finds one file of a subject (`35_01.amc`, `35.asf`, `partial/35_14.amc`).
 pub fn find(subject: Subject, file: &str) -> Result<PathBuf> {
-    let dirs = search_dirs(subject);
-    for d in &dirs {
+    find_in(&search_dirs(subject), file)
+}
+
+/// Finds `file` in the first of `dirs` that holds it.
+pub fn find_in(dirs: &[PathBuf], file: &str) -> Result<PathBuf> {
+    for d in dirs {
         let p = d.join(file);
         if p.is_file() {
             return Ok(clean(&p));

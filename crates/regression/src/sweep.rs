@@ -23,15 +23,36 @@ impl PenaltyGrid {
         Ok(PenaltyGrid { penalties })
     }
 
+    /// Most values in a grid.
+    pub const MAX_LEN: usize = 100_000;
+
     /// `10^e` for `e` from `start` down to `stop` in steps of `step` (the
-    /// Matlab range `10.^(start:-step:stop)`), computed from integer
-    /// multiples of the step so that no rounding accumulates.
+    /// Matlab range `10.^(start:-step:stop)`). When `start` and `step` are
+    /// decimals with at most 9 digits after the point, every exponent is
+    /// computed exactly as an integer over a power of ten (`1 − 3·0.1` is
+    /// `7/10`, not `0.7000000000000001`), so the same range written anywhere
+    /// gives the same bits.
     pub fn log10_range(start: f64, step: f64, stop: f64) -> Result<PenaltyGrid> {
         if !(start.is_finite() && stop.is_finite() && step.is_finite() && step > 0.0 && start >= stop) {
             return Err(Error::InvalidGrid(format!("10^({start} : -{step} : {stop})")));
         }
-        let n = ((start - stop) / step + 1e-9).floor() as usize + 1;
-        PenaltyGrid::new((0..n).map(|k| 10f64.powf(start - k as f64 * step)).collect())
+        let n = ((start - stop) / step + 1e-9).floor() + 1.0;
+        if n > Self::MAX_LEN as f64 {
+            return Err(Error::InvalidGrid(format!(
+                "10^({start} : -{step} : {stop}) has {n} values; at most {}",
+                Self::MAX_LEN
+            )));
+        }
+        let n = n as usize;
+        let scale = (0..=9).map(|e| 10f64.powi(e)).find(|s| {
+            let is_int = |v: f64| (v * s - (v * s).round()).abs() <= 1e-9 * (v * s).abs().max(1.0);
+            is_int(start) && is_int(step)
+        });
+        let exponent = |k: usize| match scale {
+            Some(s) => ((start * s).round() - k as f64 * (step * s).round()) / s,
+            None => start - k as f64 * step,
+        };
+        PenaltyGrid::new((0..n).map(|k| 10f64.powf(exponent(k))).collect())
     }
 
     /// The grid of wyffels & Schrauwen (2009): `10^(1 : −0.1 : −8)`, 91 values from 10 to 1e-8.

@@ -11,17 +11,18 @@ fn main() {
     let sine = |len: usize, off: usize| (off..off + len).map(|k| amp * (k as f64 / 4.0).sin()).collect::<Vec<_>>();
     let cfg = ReservoirConfig { n_neurons: n, ..ReservoirConfig::wyffels_schrauwen_2009() }.check().unwrap();
     let res = Reservoir::new(&cfg, 1).unwrap();
-    let data = TrainingData {
-        train: Sequence::outputs_only(sine(1200, 0)),
-        warmup: Sequence::outputs_only(sine(1200, 0)),
-        validation: Sequence::outputs_only(sine(300, 1200)),
-    };
+    let data = TrainingData::nmse(
+        Sequence::outputs_only(sine(1200, 0)),
+        Sequence::outputs_only(sine(1200, 0)),
+        Sequence::outputs_only(sine(300, 1200)),
+    );
     let settings = TrainSettings {
         washout: 200,
         penalties: PenaltyGrid::log10_range(1.0, 0.5, -8.0).unwrap(),
         noise_variance: noise,
         n_noise_draws: 2,
         noise_seed: 7,
+        ..TrainSettings::wyffels_schrauwen_2009()
     };
     let tr = train(&res, &data, &settings).unwrap();
     for p in &tr.curve {
@@ -32,6 +33,7 @@ fn main() {
         res,
         tr,
         settings,
+        Scoring::default(),
         vec![OutputChannel { name: "s".into(), mean: 0.0, std: 1.0 }],
         vec![],
         String::new(),

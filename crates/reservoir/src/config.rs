@@ -28,13 +28,24 @@ pub enum Precision {
 
 /// Sparse random connections from a signal into the reservoir: each neuron is
 /// connected with probability `fraction`, with weight `+scale` or `−scale`
-/// with equal probability (the paper's "binomial" scaling).
+/// with equal probability (the paper's "binomial" scaling). A control input
+/// drives the neurons with `(u − center)`; feedback has no center.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Coupling {
     /// Fraction of neurons that receive the signal, in [0, 1].
     pub fraction: f64,
     /// Magnitude of each connection, >= 0.
     pub scale: f64,
+    /// The value of the signal that drives nothing (0: the raw signal).
+    #[serde(default)]
+    pub center: f64,
+}
+
+impl Coupling {
+    /// `fraction` of the neurons at `±scale`, no center.
+    pub const fn new(fraction: f64, scale: f64) -> Coupling {
+        Coupling { fraction, scale, center: 0.0 }
+    }
 }
 
 /// The unchecked reservoir configuration.
@@ -51,6 +62,7 @@ pub struct Coupling {
 /// | `n_outputs` | 1 (22 for the HOAP-2 joints) | number of generated signals D | >= 1 |
 /// | `activation` | sigmoid (we read: tanh) | neuron non-linearity | |
 /// | `precision` | | f32 or f64 dynamics | |
+/// | `tempo_input` | none (our addition) | a control input that multiplies the leak rate | index < inputs |
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReservoirConfig {
@@ -74,6 +86,12 @@ pub struct ReservoirConfig {
     pub activation: Activation,
     /// Precision of the dynamics.
     pub precision: Precision,
+    /// A control input that sets the tempo: at every step the leak rate is
+    /// `leak_rate · u[tempo_input]`, clamped to [0, 1]. The neurons' time
+    /// constant shrinks as the input grows, so the whole rhythm speeds up.
+    /// (Not in the paper; `None` is the paper's fixed leak rate.)
+    #[serde(default)]
+    pub tempo_input: Option<usize>,
 }
 
 impl ReservoirConfig {
@@ -87,11 +105,12 @@ impl ReservoirConfig {
             spectral_radius: 1.0,
             leak_rate: 0.3,
             bias_range: [0.0, 0.1],
-            feedback: Coupling { fraction: 1.0, scale: 0.05 },
+            feedback: Coupling::new(1.0, 0.05),
             inputs: Vec::new(),
             n_outputs: 1,
             activation: Activation::Tanh,
             precision: Precision::F32,
+            tempo_input: None,
         }
     }
 
@@ -122,14 +141,29 @@ impl ReservoirConfig {
             if !(c.scale.is_finite() && c.scale >= 0.0) {
                 return Err(bad(&format!("{name}.scale"), c.scale.to_string(), "expected a finite number >= 0"));
             }
+            if !c.center.is_finite() {
+                return Err(bad(&format!("{name}.center"), c.center.to_string(), "expected a finite number"));
+            }
             Ok(())
         };
         coupling("feedback".into(), &self.feedback)?;
+        if self.feedback.center != 0.0 {
+            return Err(bad(
+                "feedback.center",
+                self.feedback.center.to_string(),
+                "expected 0 (feedback has no center)",
+            ));
+        }
         for (k, c) in self.inputs.iter().enumerate() {
             coupling(format!("inputs[{k}]"), c)?;
         }
         if !(1..=1000).contains(&self.n_outputs) {
             return Err(bad("n_outputs", self.n_outputs.to_string(), "expected 1 ..= 1000"));
+        }
+        if let Some(k) = self.tempo_input
+            && k >= self.inputs.len()
+        {
+            return Err(bad("tempo_input", k.to_string(), "expected the index of a control input"));
         }
         Ok(CheckedConfig(self))
     }

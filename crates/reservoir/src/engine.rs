@@ -21,9 +21,14 @@ pub(crate) struct Engine<R: SimdDot> {
     fb_t: Vec<R>,
     /// Input weights transposed: `U × N`.
     in_t: Vec<R>,
+    /// Bias minus the input weights times the input centers.
     bias: Vec<R>,
     leak: R,
     keep: R,
+    /// Leak rate as `f64`, for a tempo input.
+    leak_f64: f64,
+    /// The control input that multiplies the leak rate.
+    tempo: Option<usize>,
     logistic: bool,
     /// The instruction set the hot loops are compiled for, detected at run
     /// time (AVX2 where present). Results do not depend on it: the loops do
@@ -81,16 +86,29 @@ impl<R: SimdDot> Engine<R> {
     pub fn new(res: &Reservoir) -> Engine<R> {
         let c = res.config();
         let (n, d, u) = (res.n_neurons(), res.n_outputs(), res.n_inputs());
+        // An input with a center drives (u − center): fold −W_in·center into the bias.
+        let w_in = res.w_input();
+        let bias = res
+            .bias()
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| {
+                let shift: f64 = c.inputs.iter().enumerate().map(|(k, cp)| w_in[i * u + k] * cp.center).sum();
+                R::from_f64(b - shift)
+            })
+            .collect();
         Engine {
             n,
             d,
             u,
             wt: transpose(res.w(), n, n),
             fb_t: transpose(res.w_feedback(), n, d),
-            in_t: transpose(res.w_input(), n, u),
-            bias: res.bias().iter().map(|&v| R::from_f64(v)).collect(),
+            in_t: transpose(w_in, n, u),
+            bias,
             leak: R::from_f64(c.leak_rate),
             keep: R::from_f64(1.0 - c.leak_rate),
+            leak_f64: c.leak_rate,
+            tempo: c.tempo_input,
             logistic: c.activation == Activation::Logistic,
             arch: pulp::Arch::new(),
         }
@@ -113,15 +131,22 @@ impl<R: SimdDot> Engine<R> {
                 *p = *p + *wv * uk;
             }
         }
+        let (leak, keep) = match self.tempo {
+            Some(k) => {
+                let l = (self.leak_f64 * u[k].to_f64()).clamp(0.0, 1.0);
+                (R::from_f64(l), R::from_f64(1.0 - l))
+            }
+            None => (self.leak, self.keep),
+        };
         if self.logistic {
             let half = R::from_f64(0.5);
             for (xi, p) in x.iter_mut().zip(pre.iter()) {
                 let f = half + half * (*p * half).tanh_det();
-                *xi = self.keep * *xi + self.leak * f;
+                *xi = keep * *xi + leak * f;
             }
         } else {
             for (xi, p) in x.iter_mut().zip(pre.iter()) {
-                *xi = self.keep * *xi + self.leak * p.tanh_det();
+                *xi = keep * *xi + leak * p.tanh_det();
             }
         }
         if let Some(noise) = noise {
@@ -195,61 +220,54 @@ impl<R: SimdDot> Engine<R> {
         }
     }
 
-    /// Free runs of several columns at once, each with its own readout and
-    /// noise sequence, from the common start state `x0`. Each step is one
-    /// batched product `W·[x_1 … x_K]`. Returns, per column, the sum of squared
-    /// errors against `target` for each output (`f64::INFINITY` once a column's
-    /// output is not finite).
-    pub fn free_run_batch(
-        &self,
-        x0: &[R],
-        readouts: &[&ReadoutR<R>],
-        noises: &[Option<&[R]>],
-        target: &[f64],
-        controls: &[f64],
-    ) -> Vec<Vec<f64>> {
-        type Args<'a, R> = (&'a [R], &'a [&'a ReadoutR<R>], &'a [Option<&'a [R]>], &'a [f64], &'a [f64]);
-        struct Op<'a, R: SimdDot>(&'a Engine<R>, Args<'a, R>);
-        impl<R: SimdDot> WithSimd for Op<'_, R> {
-            type Output = Vec<Vec<f64>>;
+    /// Free runs of several columns at once (see [`Batch`]). Each step is one
+    /// batched product `W·[x_1 … x_K]`. While a hold is active its values
+    /// replace the fed-back outputs of every column. `sink(step, column, y)`
+    /// receives each column's output before it is fed back; it returns
+    /// `false` to stop reporting that column.
+    pub fn free_run_batch(&self, batch: &Batch<'_, R>, sink: &mut dyn FnMut(usize, usize, &[R]) -> bool) {
+        struct Op<'a, 'b, R: SimdDot>(&'a Engine<R>, &'a Batch<'a, R>, &'b mut dyn FnMut(usize, usize, &[R]) -> bool);
+        impl<R: SimdDot> WithSimd for Op<'_, '_, R> {
+            type Output = ();
             #[inline(always)]
-            fn with_simd<S: Simd>(self, simd: S) -> Vec<Vec<f64>> {
-                let (x0, r, z, t, c) = self.1;
-                self.0.free_run_batch_simd(simd, x0, r, z, t, c)
+            fn with_simd<S: Simd>(self, simd: S) {
+                self.0.free_run_batch_simd(simd, self.1, self.2)
             }
         }
-        self.arch.dispatch(Op(self, (x0, readouts, noises, target, controls)))
+        self.arch.dispatch(Op(self, batch, sink))
     }
 
     #[inline(always)]
     fn free_run_batch_simd<S: Simd>(
         &self,
         simd: S,
-        x0: &[R],
-        readouts: &[&ReadoutR<R>],
-        noises: &[Option<&[R]>],
-        target: &[f64],
-        controls: &[f64],
-    ) -> Vec<Vec<f64>> {
+        batch: &Batch<'_, R>,
+        sink: &mut dyn FnMut(usize, usize, &[R]) -> bool,
+    ) {
+        let Batch { steps, x0, readouts, noises, controls, holds } = *batch;
         let (n, d) = (self.n, self.d);
         let k_cols = readouts.len();
-        let steps = target.len() / d;
         let mut xs: Vec<R> = x0.iter().copied().cycle().take(n * k_cols).collect();
         let mut pre = vec![R::ZERO; n * k_cols];
         let mut ys = vec![R::ZERO; d * k_cols];
         let mut u = vec![R::ZERO; self.u];
-        let mut sse = vec![vec![0.0; d]; k_cols];
+        let mut live = vec![true; k_cols];
+        let mut held: Vec<R> = vec![R::ZERO; d];
         for s in 0..steps {
-            let tgt = &target[s * d..(s + 1) * d];
+            if !live.iter().any(|l| *l) {
+                break;
+            }
             for c in 0..k_cols {
                 let y = &mut ys[c * d..(c + 1) * d];
                 readouts[c].apply(simd, &xs[c * n..(c + 1) * n], y);
-                for ((e, yk), t) in sse[c].iter_mut().zip(y.iter()).zip(tgt) {
-                    let diff = yk.to_f64() - t;
-                    *e += diff * diff;
-                    if !e.is_finite() {
-                        *e = f64::INFINITY;
-                    }
+                if live[c] {
+                    live[c] = sink(s, c, y);
+                }
+            }
+            let hold = holds.iter().find(|h| (h.from..h.from + h.len).contains(&s));
+            if let Some(h) = hold {
+                for (a, b) in held.iter_mut().zip(&h.values) {
+                    *a = R::from_f64(*b);
                 }
             }
             for (a, b) in u.iter_mut().zip(&controls[s * self.u..(s + 1) * self.u]) {
@@ -258,15 +276,40 @@ impl<R: SimdDot> Engine<R> {
             matmul_cols(simd, &self.wt, n, &xs, &mut pre);
             for c in 0..k_cols {
                 let noise = noises[c].map(|z| &z[s * n..(s + 1) * n]);
-                self.finish(
-                    &mut xs[c * n..(c + 1) * n],
-                    &mut pre[c * n..(c + 1) * n],
-                    &ys[c * d..(c + 1) * d],
-                    &u,
-                    noise,
-                );
+                let fed = if hold.is_some() { &held[..] } else { &ys[c * d..(c + 1) * d] };
+                self.finish(&mut xs[c * n..(c + 1) * n], &mut pre[c * n..(c + 1) * n], fed, &u, noise);
             }
         }
-        sse
     }
+}
+
+/// The free runs advanced together by [`Engine::free_run_batch`]: columns
+/// with their own readout and noise, from one start state, under the same
+/// controls and holds. `controls` and every noise sequence cover `steps` steps.
+#[derive(Clone, Copy)]
+pub(crate) struct Batch<'a, R: SimdDot> {
+    /// Steps to run.
+    pub steps: usize,
+    /// The common start state (length N).
+    pub x0: &'a [R],
+    /// One readout per column.
+    pub readouts: &'a [&'a ReadoutR<R>],
+    /// One noise sequence (`steps × N`) or none per column.
+    pub noises: &'a [Option<&'a [R]>],
+    /// `steps × U` control values.
+    pub controls: &'a [f64],
+    /// Held outputs.
+    pub holds: &'a [Hold],
+}
+
+/// During steps `from .. from + len` of a validation free run, the fed-back
+/// outputs are held at `values` (normalised units): the paper's perturbation.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Hold {
+    /// First held step.
+    pub from: usize,
+    /// Number of held steps.
+    pub len: usize,
+    /// One value per output.
+    pub values: Vec<f64>,
 }

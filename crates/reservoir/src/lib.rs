@@ -31,17 +31,22 @@ mod error;
 mod generator;
 pub mod kernel;
 mod model;
+mod orbit;
 mod real;
 mod reservoir;
 mod train;
 
 pub use config::{Activation, CheckedConfig, Coupling, Precision, ReservoirConfig};
+pub use engine::Hold;
 pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;
-pub use model::{FORMAT_VERSION, MAGIC, OutputChannel, Provenance, TrainedCpg};
+pub use model::{
+    FORMAT_VERSION, MAGIC, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher, TrainedCpg,
+};
+pub use orbit::{OrbitStay, orbit_nmse};
 pub use real::Real;
 pub use reservoir::{Reservoir, spectral_radius};
 pub use train::{
-    Harvest, Sequence, TrainSettings, Training, TrainingData, ValidationPoint, harvest, teacher_forced_states, train,
-    validate,
+    Candidate, Harvest, Score, Scoring, Sequence, TrainSettings, Training, TrainingData, ValidationPoint, harvest,
+    teacher_forced_states, train, validate,
 };

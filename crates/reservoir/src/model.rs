@@ -5,7 +5,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `CPGMODEL` |
-//! | 8..12 | format version (u32), currently 1 |
+//! | 8..12 | format version (u32), currently 2 |
 //! | 12..20 | payload length in bytes (u64) |
 //! | 20..28 | FNV-1a 64 checksum of the payload |
 //! | 28.. | payload: bincode 2 (standard config) of the model with its configuration, provenance and weights |
@@ -23,12 +23,18 @@ use serde::{Deserialize, Serialize};
 use crate::config::ReservoirConfig;
 use crate::error::{Error, Result};
 use crate::reservoir::Reservoir;
-use crate::train::{TrainSettings, Training, ValidationPoint};
+use crate::train::{Scoring, TrainSettings, Training, ValidationPoint};
 
 /// Magic bytes that open every model file.
 pub const MAGIC: &[u8; 8] = b"CPGMODEL";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+/// The largest sample rate a model may have, Hz.
+pub const MAX_SAMPLE_RATE_HZ: f64 = 100_000.0;
+/// The smallest sample rate a model may have, Hz.
+pub const MIN_SAMPLE_RATE_HZ: f64 = 1.0;
+/// Largest magnitude of an output's mean or standard deviation.
+const MAX_NORMALISATION: f64 = 1e6;
 const HEADER: usize = 28;
 
 /// Name and normalisation of one output channel: the network works on
@@ -56,10 +62,39 @@ pub struct Provenance {
     pub validation_curve: Vec<ValidationPoint>,
     /// One-step NMSE on the training states.
     pub train_nmse: f64,
+    /// How the validation runs were scored and pushed.
+    pub scoring: Scoring,
     /// Sample rate of the data, Hz.
     pub sample_rate_hz: f64,
     /// Version of cpg-reservoir that trained the model.
     pub crate_version: String,
+}
+
+/// One rhythm the model was taught: what it should generate while its control
+/// inputs hold `controls`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Teacher {
+    /// A name for reports (`walk (35_01)`).
+    pub label: String,
+    /// The control values of this rhythm (empty without control inputs).
+    pub controls: Vec<f64>,
+    /// One period, frame-major `p × D`, in normalised units.
+    pub cycle: Vec<f64>,
+    /// Teacher frames per generated step: 1 for the motion as recorded, `u`
+    /// for the cycle played `u` times as fast.
+    pub rate: f64,
+}
+
+impl Teacher {
+    /// Frames in one period of the cycle.
+    pub fn period_frames(&self, n_outputs: usize) -> usize {
+        self.cycle.len() / n_outputs.max(1)
+    }
+
+    /// The period in generated steps (`period_frames / rate`).
+    pub fn period_steps(&self, n_outputs: usize) -> f64 {
+        self.period_frames(n_outputs) as f64 / self.rate
+    }
 }
 
 /// A trained reservoir CPG: weights, readout, start state, channel names and provenance.
@@ -77,14 +112,17 @@ pub struct TrainedCpg {
     pub controls: Vec<String>,
     /// Provenance.
     pub provenance: Provenance,
-    /// One period of the teacher (normalised, `period × D`), when the
-    /// training signal was periodic: what stability checks compare against.
-    pub reference_cycle: Option<Vec<f64>>,
+    /// The rhythms it was taught, one per control setting, when the training
+    /// signal was periodic: what stability checks compare against.
+    pub teachers: Vec<Teacher>,
+    /// The ASF text of the skeleton the channels belong to, when they came
+    /// from motion capture: what exports to AMC need.
+    pub skeleton_asf: Option<String>,
 }
 
 /// The serialisable form of a model (the payload of a file).
 #[derive(Serialize, Deserialize)]
-struct FileV1 {
+struct FileV2 {
     config: ReservoirConfig,
     seed: u64,
     w: Vec<f64>,
@@ -97,7 +135,8 @@ struct FileV1 {
     outputs: Vec<OutputChannel>,
     controls: Vec<String>,
     provenance: Provenance,
-    reference_cycle: Option<Vec<f64>>,
+    teachers: Vec<Teacher>,
+    skeleton_asf: Option<String>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -106,10 +145,12 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 
 impl TrainedCpg {
     /// Assembles a model from a training result, checking that every part fits.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         reservoir: Reservoir,
         training: Training,
         settings: TrainSettings,
+        scoring: Scoring,
         outputs: Vec<OutputChannel>,
         controls: Vec<String>,
         data: String,
@@ -117,10 +158,11 @@ impl TrainedCpg {
     ) -> Result<TrainedCpg> {
         let provenance = Provenance {
             data,
-            chosen_penalty: settings.penalties.values()[training.chosen],
+            chosen_penalty: training.penalty,
             settings,
             validation_curve: training.curve,
             train_nmse: training.train_nmse,
+            scoring,
             sample_rate_hz,
             crate_version: env!("CARGO_PKG_VERSION").into(),
         };
@@ -131,20 +173,30 @@ impl TrainedCpg {
             outputs,
             controls,
             provenance,
-            reference_cycle: None,
+            teachers: Vec::new(),
+            skeleton_asf: None,
         };
         m.check()?;
         Ok(m)
     }
 
-    /// Attaches one period of the (normalised) teacher, frame-major `period × D`.
-    pub fn with_reference_cycle(mut self, cycle: Vec<f64>) -> Result<TrainedCpg> {
-        let d = self.outputs.len();
-        if cycle.is_empty() || !cycle.len().is_multiple_of(d) || cycle.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Shape(format!("a reference cycle needs a whole number of finite frames of {d} values")));
-        }
-        self.reference_cycle = Some(cycle);
+    /// Attaches the rhythms the model was taught (normalised cycles, frame-major `period × D`).
+    pub fn with_teachers(mut self, teachers: Vec<Teacher>) -> Result<TrainedCpg> {
+        self.teachers = teachers;
+        self.check()?;
         Ok(self)
+    }
+
+    /// Attaches the skeleton (ASF text) the output channels belong to.
+    pub fn with_skeleton(mut self, asf: String) -> TrainedCpg {
+        self.skeleton_asf = Some(asf);
+        self
+    }
+
+    /// The teacher whose control values are nearest to `controls` (Euclidean), if any.
+    pub fn teacher_for(&self, controls: &[f64]) -> Option<&Teacher> {
+        let dist = |t: &Teacher| t.controls.iter().zip(controls).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+        self.teachers.iter().min_by(|a, b| dist(a).total_cmp(&dist(b)))
     }
 
     fn check(&self) -> Result<()> {
@@ -168,20 +220,56 @@ impl TrainedCpg {
             return Err(Error::Shape(format!("{} control names for {u} inputs", self.controls.len())));
         }
         let finite = r.weights.iter().chain(&r.bias).chain(&self.start_state).all(|v| v.is_finite());
-        if !finite || self.outputs.iter().any(|o| !(o.mean.is_finite() && o.std.is_finite() && o.std > 0.0)) {
-            return Err(Error::Shape("non-finite readout, state or normalisation".into()));
+        if !finite {
+            return Err(Error::Shape("non-finite readout or start state".into()));
         }
-        if let Some(c) = &self.reference_cycle
-            && (c.is_empty() || !c.len().is_multiple_of(d) || c.iter().any(|v| !v.is_finite()))
-        {
-            return Err(Error::Shape("reference cycle is not whole finite frames".into()));
+        for o in &self.outputs {
+            let ok = o.mean.is_finite()
+                && o.std.is_finite()
+                && o.std > 0.0
+                && o.mean.abs() <= MAX_NORMALISATION
+                && o.std <= MAX_NORMALISATION;
+            if !ok {
+                return Err(Error::Shape(format!(
+                    "output '{}' has mean {} and standard deviation {}; expected finite values, std > 0, both at most {MAX_NORMALISATION:e} in magnitude",
+                    o.name, o.mean, o.std
+                )));
+            }
+        }
+        for name in self.outputs.iter().map(|o| &o.name).chain(&self.controls) {
+            if name.is_empty() || name.len() > 128 || name.chars().any(|c| c.is_control() || c == ',' || c == '"') {
+                return Err(Error::Shape(format!(
+                    "channel or control name {name:?}: expected 1 to 128 characters, no comma, quote or control character"
+                )));
+            }
+        }
+        let rate = self.provenance.sample_rate_hz;
+        if !(rate.is_finite() && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&rate)) {
+            return Err(Error::Shape(format!(
+                "sample rate {rate} Hz; expected {MIN_SAMPLE_RATE_HZ} to {MAX_SAMPLE_RATE_HZ} Hz"
+            )));
+        }
+        for t in &self.teachers {
+            let ok = t.cycle.len() >= 2 * d
+                && t.cycle.len().is_multiple_of(d)
+                && t.cycle.iter().all(|v| v.is_finite())
+                && t.controls.len() == u
+                && t.controls.iter().all(|v| v.is_finite())
+                && t.rate.is_finite()
+                && t.rate > 0.0;
+            if !ok {
+                return Err(Error::Shape(format!(
+                    "teacher '{}': expected a cycle of at least 2 whole finite frames of {d} values, {u} finite control values and a rate > 0",
+                    t.label
+                )));
+            }
         }
         Ok(())
     }
 
     /// Serialises the model into the file format.
     pub fn to_bytes(&self) -> Result<Vec<u8>> {
-        let file = FileV1 {
+        let file = FileV2 {
             config: self.reservoir.config().clone(),
             seed: self.reservoir.seed(),
             w: self.reservoir.w().to_vec(),
@@ -194,7 +282,8 @@ impl TrainedCpg {
             outputs: self.outputs.clone(),
             controls: self.controls.clone(),
             provenance: self.provenance.clone(),
-            reference_cycle: self.reference_cycle.clone(),
+            teachers: self.teachers.clone(),
+            skeleton_asf: self.skeleton_asf.clone(),
         };
         let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
             .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
@@ -239,7 +328,7 @@ impl TrainedCpg {
         if fnv1a(payload) != sum {
             return Err(bad("corrupt: the payload checksum does not match".into()));
         }
-        let (f, used): (FileV1, usize) = bincode::serde::decode_from_slice(payload, bincode::config::standard())
+        let (f, used): (FileV2, usize) = bincode::serde::decode_from_slice(payload, bincode::config::standard())
             .map_err(|e| bad(format!("corrupt payload: {e}")))?;
         if used != payload.len() {
             return Err(bad(format!("corrupt payload: {} trailing bytes", payload.len() - used)));
@@ -254,7 +343,8 @@ impl TrainedCpg {
             outputs: f.outputs,
             controls: f.controls,
             provenance: f.provenance,
-            reference_cycle: f.reference_cycle,
+            teachers: f.teachers,
+            skeleton_asf: f.skeleton_asf,
         };
         m.check().map_err(|e| bad(format!("inconsistent model: {e}")))?;
         Ok(m)

@@ -8,9 +8,10 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Precision;
-use crate::engine::{Engine, ReadoutR};
+use crate::engine::{Batch, Engine, Hold, ReadoutR};
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
+use crate::orbit::{OrbitStay, orbit_nmse};
 use crate::reservoir::{Reservoir, rng};
 
 /// Signals over time: outputs (`T × D`) and control inputs (`T × U`), frame-major.
@@ -72,6 +73,38 @@ pub struct TrainingData {
     pub warmup: Sequence,
     /// Targets and controls of the validation free run.
     pub validation: Sequence,
+    /// How each candidate's validation free run is scored, and the pushes it receives.
+    pub scoring: Scoring,
+}
+
+impl TrainingData {
+    /// Data scored the paper's way: NMSE against `validation.outputs`, no pushes.
+    pub fn nmse(train: Sequence, warmup: Sequence, validation: Sequence) -> TrainingData {
+        TrainingData { train, warmup, validation, scoring: Scoring::default() }
+    }
+}
+
+/// What makes a validation free run good.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub enum Score {
+    /// The paper's: mean squared error against the validation targets, divided
+    /// by their variance, averaged over the outputs (NMSE), step by step.
+    #[default]
+    Nmse,
+    /// Distance to the teacher's orbit: for each stay, the NMSE of its last
+    /// frames against the teacher cycle at the best phase (see
+    /// [`orbit_nmse`](crate::orbit_nmse)), averaged over the stays. Phase
+    /// slips cost nothing; damping, distortion and period errors do.
+    Orbit(Vec<OrbitStay>),
+}
+
+/// The score of the validation free run, and the pushes applied during it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Scoring {
+    /// The score.
+    pub score: Score,
+    /// Outputs held during the validation run (normalised units).
+    pub holds: Vec<Hold>,
 }
 
 /// How to train.
@@ -87,6 +120,19 @@ pub struct TrainSettings {
     pub n_noise_draws: usize,
     /// Seed of the validation noise.
     pub noise_seed: u64,
+    /// Standard deviation of Gaussian noise added to the fed-back teacher
+    /// while the training states are harvested (0: none). The targets stay
+    /// clean, so the readout learns to steer states near the orbit back onto
+    /// it (Jaeger's trick for stable output feedback). Seeded by `noise_seed`.
+    #[serde(default)]
+    pub teacher_noise: f64,
+    /// Choose the largest penalty whose score is at most `(1 + this) ×` the
+    /// best score, rather than the best itself (0: the best; ties go to the
+    /// larger penalty). Like the one-standard-error rule of cross-validation,
+    /// it prefers the more regularised readout when it is nearly as good:
+    /// small penalties next to the grid's divergent end are fragile.
+    #[serde(default)]
+    pub prefer_larger_within: f64,
 }
 
 impl TrainSettings {
@@ -100,6 +146,8 @@ impl TrainSettings {
             noise_variance: 1e-3,
             n_noise_draws: 5,
             noise_seed: 1,
+            teacher_noise: 0.0,
+            prefer_larger_within: 0.0,
         }
     }
 
@@ -112,8 +160,23 @@ impl TrainSettings {
         if self.n_noise_draws == 0 {
             return Err(Error::Settings("at least one noise draw is needed".into()));
         }
+        if !(self.teacher_noise.is_finite() && self.teacher_noise >= 0.0) {
+            return Err(Error::Settings(format!("teacher noise {} must be >= 0", self.teacher_noise)));
+        }
+        if !(self.prefer_larger_within.is_finite() && self.prefer_larger_within >= 0.0) {
+            return Err(Error::Settings(format!("prefer_larger_within {} must be >= 0", self.prefer_larger_within)));
+        }
         Ok(())
     }
+}
+
+/// A readout and the penalty it was solved with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// The ridge penalty.
+    pub penalty: f64,
+    /// The readout.
+    pub readout: Readout,
 }
 
 /// One candidate penalty and how it validated.
@@ -121,9 +184,10 @@ impl TrainSettings {
 pub struct ValidationPoint {
     /// The ridge penalty.
     pub penalty: f64,
-    /// Free-run NMSE averaged over the noise draws (infinite if the run diverged).
+    /// The validation score averaged over the noise draws (infinite if a run
+    /// diverged): the free-run NMSE, or the orbit score (see [`Score`]).
     pub nmse: f64,
-    /// Free-run NMSE of each draw.
+    /// The score of each draw.
     pub nmse_per_draw: Vec<f64>,
 }
 
@@ -132,8 +196,8 @@ pub struct ValidationPoint {
 pub struct Training {
     /// The chosen readout.
     pub readout: Readout,
-    /// Index of the chosen penalty in the grid.
-    pub chosen: usize,
+    /// The penalty it was solved with.
+    pub penalty: f64,
     /// Every candidate, in grid order.
     pub curve: Vec<ValidationPoint>,
     /// State after the warm-up: where generation starts.
@@ -192,12 +256,18 @@ pub struct Harvest {
 /// Harvests the training states of `seq` by teacher forcing from the zero state.
 pub fn harvest(reservoir: &Reservoir, seq: &Sequence, washout: usize) -> Result<Harvest> {
     match reservoir.config().precision {
-        Precision::F32 => harvest_in::<f32>(&Engine::new(reservoir), seq, washout),
-        Precision::F64 => harvest_in::<f64>(&Engine::new(reservoir), seq, washout),
+        Precision::F32 => harvest_in::<f32>(&Engine::new(reservoir), seq, washout, None),
+        Precision::F64 => harvest_in::<f64>(&Engine::new(reservoir), seq, washout, None),
     }
 }
 
-fn harvest_in<R: SimdDot>(engine: &Engine<R>, seq: &Sequence, washout: usize) -> Result<Harvest> {
+/// `noise`: (standard deviation, seed) of the noise on the fed-back teacher.
+fn harvest_in<R: SimdDot>(
+    engine: &Engine<R>,
+    seq: &Sequence,
+    washout: usize,
+    noise: Option<(f64, u64)>,
+) -> Result<Harvest> {
     let (n, d, u) = (engine.n, engine.d, engine.u);
     let t = seq.check("training sequence", d, u)?;
     if washout + 2 > t {
@@ -208,7 +278,19 @@ fn harvest_in<R: SimdDot>(engine: &Engine<R>, seq: &Sequence, washout: usize) ->
     let rows = t - 1 - washout;
     let mut states = Mat::<f64>::zeros(rows, n);
     let mut x = vec![R::ZERO; n];
-    engine.teacher_force(&mut x, &seq.outputs[..(t - 1) * d], &seq.controls[..(t - 1) * u], |k, s| {
+    let noisy;
+    let fed: &[f64] = match noise {
+        Some((sigma, seed)) if sigma > 0.0 => {
+            let mut g = rng(seed, 2_000);
+            noisy = seq.outputs[..(t - 1) * d]
+                .iter()
+                .map(|v| v + sigma * g.sample::<f64, _>(StandardNormal))
+                .collect::<Vec<_>>();
+            &noisy
+        }
+        _ => &seq.outputs[..(t - 1) * d],
+    };
+    engine.teacher_force(&mut x, fed, &seq.controls[..(t - 1) * u], |k, s| {
         if k >= washout {
             for (j, v) in s.iter().enumerate() {
                 states[(k - washout, j)] = v.to_f64();
@@ -220,46 +302,70 @@ fn harvest_in<R: SimdDot>(engine: &Engine<R>, seq: &Sequence, washout: usize) ->
 }
 
 /// Scores candidate readouts: each runs freely from the state reached by
-/// teacher-forcing `warmup`, with the settings' state noise, over
-/// `validation`; the score is the NMSE against `validation.outputs`,
-/// averaged over the noise draws (the same draws for every candidate). All
-/// candidates and draws advance together in batches spread over the cores.
-/// Returns the scores in candidate order and the start state.
+/// teacher-forcing `data.warmup`, with the settings' state noise and the
+/// scoring's holds, driven by `data.validation.controls`, and is scored as
+/// `data.scoring` says, averaged over the noise draws (the same draws for
+/// every candidate). All candidates and draws advance together in batches
+/// spread over the cores. Returns the scores in candidate order and the start state.
 pub fn validate(
     reservoir: &Reservoir,
-    readouts: &[Readout],
-    warmup: &Sequence,
-    validation: &Sequence,
+    candidates: &[Candidate],
+    data: &TrainingData,
     settings: &TrainSettings,
 ) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
     match reservoir.config().precision {
-        Precision::F32 => validate_in::<f32>(&Engine::new(reservoir), readouts, warmup, validation, settings),
-        Precision::F64 => validate_in::<f64>(&Engine::new(reservoir), readouts, warmup, validation, settings),
+        Precision::F32 => validate_in::<f32>(&Engine::new(reservoir), candidates, data, settings),
+        Precision::F64 => validate_in::<f64>(&Engine::new(reservoir), candidates, data, settings),
     }
+}
+
+fn check_scoring(scoring: &Scoring, steps: usize, d: usize) -> Result<()> {
+    for h in &scoring.holds {
+        if h.values.len() != d || h.values.iter().any(|v| !v.is_finite()) || h.from.saturating_add(h.len) > steps {
+            return Err(Error::Settings(format!(
+                "a hold at steps {}..{} needs {d} finite values inside the {steps}-step validation run",
+                h.from,
+                h.from.saturating_add(h.len)
+            )));
+        }
+    }
+    if let Score::Orbit(stays) = &scoring.score {
+        if stays.is_empty() {
+            return Err(Error::Settings("an orbit score needs at least one stay".into()));
+        }
+        for s in stays {
+            s.check(d, steps)?;
+        }
+    }
+    Ok(())
 }
 
 fn validate_in<R: SimdDot>(
     engine: &Engine<R>,
-    readouts: &[Readout],
-    warmup: &Sequence,
-    validation: &Sequence,
+    candidates: &[Candidate],
+    data: &TrainingData,
     settings: &TrainSettings,
 ) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
     let (n, d, u) = (engine.n, engine.d, engine.u);
+    let (warmup, validation) = (&data.warmup, &data.validation);
     warmup.check("warm-up sequence", d, u)?;
     let steps = validation.check("validation sequence", d, u)?;
     if steps == 0 {
         return Err(Error::Settings("the validation sequence is empty".into()));
     }
-    if let Some(r) = readouts.iter().find(|r| r.n_features != n || r.bias.len() != d || r.weights.len() != n * d) {
+    if let Some(c) = candidates
+        .iter()
+        .find(|c| c.readout.n_features != n || c.readout.bias.len() != d || c.readout.weights.len() != n * d)
+    {
         return Err(Error::Shape(format!(
             "a readout is {}×{}, the reservoir needs {d}×{n}",
-            r.bias.len(),
-            r.n_features
+            c.readout.bias.len(),
+            c.readout.n_features
         )));
     }
     settings.check_noise()?;
-    let readouts_r: Vec<ReadoutR<R>> = readouts.iter().map(ReadoutR::new).collect();
+    check_scoring(&data.scoring, steps, d)?;
+    let readouts_r: Vec<ReadoutR<R>> = candidates.iter().map(|c| ReadoutR::new(&c.readout)).collect();
     let mut x0 = vec![R::ZERO; n];
     engine.teacher_force(&mut x0, &warmup.outputs, &warmup.controls, |_, _| {});
 
@@ -279,25 +385,84 @@ fn validate_in<R: SimdDot>(
         })
         .collect();
     let draws = settings.n_noise_draws;
-    let n_cols = readouts.len() * draws;
+    let n_cols = candidates.len() * draws;
     let chunk = n_cols.div_ceil(rayon::current_num_threads()).div_ceil(4) * 4;
-    let column_nmse: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
+    let holds = &data.scoring.holds;
+    let column_score: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
         let rs: Vec<&ReadoutR<R>> = cols.clone().map(|c| &readouts_r[c / draws]).collect();
         let zs: Vec<Option<&[R]>> = cols.clone().map(|c| (sigma > 0.0).then(|| noises[c % draws].as_slice())).collect();
-        engine
-            .free_run_batch(&x0, &rs, &zs, &validation.outputs, &validation.controls)
-            .into_iter()
-            .map(|sse| sse.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
-            .collect()
+        let k = rs.len();
+        let batch = Batch { steps, x0: &x0, readouts: &rs, noises: &zs, controls: &validation.controls, holds };
+        match &data.scoring.score {
+            Score::Nmse => {
+                let mut sse = vec![0.0; k * d];
+                let target = &validation.outputs;
+                let mut sink = |s: usize, c: usize, y: &[R]| {
+                    let e = &mut sse[c * d..(c + 1) * d];
+                    for ((e, yk), t) in e.iter_mut().zip(y).zip(&target[s * d..(s + 1) * d]) {
+                        let diff = yk.to_f64() - t;
+                        *e += diff * diff;
+                        if !e.is_finite() {
+                            *e = f64::INFINITY;
+                        }
+                    }
+                    true
+                };
+                engine.free_run_batch(&batch, &mut sink);
+                sse.chunks_exact(d)
+                    .map(|e| e.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
+                    .collect()
+            }
+            Score::Orbit(stays) => {
+                // Only the scored windows are kept.
+                let windows: Vec<(usize, usize)> = stays.iter().map(|s| (s.end - s.window, s.end)).collect();
+                let per_col: usize = windows.iter().map(|(a, b)| b - a).sum::<usize>() * d;
+                let mut kept = vec![f64::NAN; k * per_col];
+                let mut finite = vec![true; k];
+                let mut sink = |s: usize, c: usize, y: &[R]| {
+                    if y.iter().any(|v| !v.finite()) {
+                        finite[c] = false;
+                        return false;
+                    }
+                    let mut off = 0;
+                    for &(a, b) in &windows {
+                        if (a..b).contains(&s) {
+                            let dst = c * per_col + off + (s - a) * d;
+                            for (o, v) in kept[dst..dst + d].iter_mut().zip(y) {
+                                *o = v.to_f64();
+                            }
+                        }
+                        off += (b - a) * d;
+                    }
+                    true
+                };
+                engine.free_run_batch(&batch, &mut sink);
+                (0..k)
+                    .map(|c| {
+                        if !finite[c] {
+                            return f64::INFINITY;
+                        }
+                        let mut off = 0;
+                        let mut total = 0.0;
+                        for (stay, &(a, b)) in stays.iter().zip(&windows) {
+                            let len = (b - a) * d;
+                            total += orbit_nmse(&kept[c * per_col + off..c * per_col + off + len], stay, d);
+                            off += len;
+                        }
+                        total / stays.len() as f64
+                    })
+                    .collect()
+            }
+        }
     });
-    let curve = readouts
+    let curve = candidates
         .iter()
         .enumerate()
-        .map(|(i, _)| {
-            let per: Vec<f64> = column_nmse[i * draws..(i + 1) * draws].to_vec();
+        .map(|(i, c)| {
+            let per: Vec<f64> = column_score[i * draws..(i + 1) * draws].to_vec();
             let nmse =
                 if per.iter().all(|v| v.is_finite()) { per.iter().sum::<f64>() / draws as f64 } else { f64::INFINITY };
-            ValidationPoint { penalty: f64::NAN, nmse, nmse_per_draw: per }
+            ValidationPoint { penalty: c.penalty, nmse, nmse_per_draw: per }
         })
         .collect();
     Ok((curve, x0.iter().map(|v| v.to_f64()).collect()))
@@ -307,20 +472,30 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
     let engine = Engine::<R>::new(reservoir);
     // Settings first: the harvest and the factorisation are the expensive part.
     settings.check_noise()?;
-    let Harvest { states, targets } = harvest_in(&engine, &data.train, settings.washout)?;
+    let Harvest { states, targets } =
+        harvest_in(&engine, &data.train, settings.washout, Some((settings.teacher_noise, settings.noise_seed)))?;
     let (rows, n, d) = (states.nrows(), engine.n, engine.d);
     let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
     let grid = &settings.penalties;
-    let readouts: Vec<Readout> = sweep(grid, |_, p| path.solve(p)).into_iter().collect::<Result<_, _>>()?;
-    let (mut curve, x0) = validate_in(&engine, &readouts, &data.warmup, &data.validation, settings)?;
-    for (p, &penalty) in curve.iter_mut().zip(grid.values()) {
-        p.penalty = penalty;
-    }
-    let chosen = (0..curve.len()).fold(0, |best, i| if curve[i].nmse < curve[best].nmse { i } else { best });
-    if !curve[chosen].nmse.is_finite() {
+    let candidates: Vec<Candidate> =
+        sweep(grid, |_, penalty| path.solve(penalty).map(|readout| Candidate { penalty, readout }))
+            .into_iter()
+            .collect::<Result<_, _>>()?;
+    let (curve, x0) = validate_in(&engine, &candidates, data, settings)?;
+    let best = curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    if !best.is_finite() {
         return Err(Error::Settings("every candidate penalty diverged in validation".into()));
     }
-    let readout = readouts[chosen].clone();
+    let limit = best * (1.0 + settings.prefer_larger_within);
+    let chosen = (0..curve.len())
+        .filter(|&i| curve[i].nmse <= limit)
+        .fold(None, |b: Option<usize>, i| match b {
+            Some(b) if curve[b].penalty >= curve[i].penalty => Some(b),
+            _ => Some(i),
+        })
+        .ok_or_else(|| Error::Settings("no candidate penalty".into()))?;
+    let Candidate { penalty, readout } =
+        candidates.into_iter().nth(chosen).ok_or(Error::Settings("no candidate penalties".into()))?;
     let mut pred = vec![0.0; rows * d];
     let mut row = vec![0.0; n];
     for (i, out) in pred.chunks_exact_mut(d).enumerate() {
@@ -331,5 +506,5 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
     }
     let target: Vec<f64> = (0..rows).flat_map(|i| (0..d).map(move |j| (i, j))).map(|(i, j)| targets[(i, j)]).collect();
     let train_nmse = nmse(&pred, &target, d);
-    Ok(Training { readout, chosen, curve, start_state: x0, train_nmse })
+    Ok(Training { readout, penalty, curve, start_state: x0, train_nmse })
 }

@@ -20,11 +20,11 @@ fn sine(len: usize, offset: usize) -> Vec<f64> {
 }
 
 fn sine_data() -> TrainingData {
-    TrainingData {
-        train: Sequence::outputs_only(sine(1200, 0)),
-        warmup: Sequence::outputs_only(sine(1200, 0)),
-        validation: Sequence::outputs_only(sine(300, 1200)),
-    }
+    TrainingData::nmse(
+        Sequence::outputs_only(sine(1200, 0)),
+        Sequence::outputs_only(sine(1200, 0)),
+        Sequence::outputs_only(sine(300, 1200)),
+    )
 }
 
 fn quick_settings() -> TrainSettings {
@@ -34,6 +34,7 @@ fn quick_settings() -> TrainSettings {
         noise_variance: 1e-3,
         n_noise_draws: 2,
         noise_seed: 7,
+        ..TrainSettings::wyffels_schrauwen_2009()
     }
 }
 
@@ -43,7 +44,7 @@ fn sine_model(n: usize, seed: u64, precision: Precision) -> TrainedCpg {
     let settings = quick_settings();
     let tr = train(&res, &sine_data(), &settings).unwrap();
     let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
-    TrainedCpg::new(res, tr, settings, out, vec![], "0.5 sin(k/4)".into(), 1.0).unwrap()
+    TrainedCpg::new(res, tr, settings, Scoring::default(), out, vec![], "0.5 sin(k/4)".into(), 1.0).unwrap()
 }
 
 #[test]
@@ -65,8 +66,8 @@ fn rescaled_matrix_has_the_requested_spectral_radius() {
 #[test]
 fn weights_follow_the_config() {
     let mut c = config(400);
-    c.feedback = Coupling { fraction: 0.65, scale: 0.11 };
-    c.inputs = vec![Coupling { fraction: 0.25, scale: 0.2 }];
+    c.feedback = Coupling::new(0.65, 0.11);
+    c.inputs = vec![Coupling::new(0.25, 0.2)];
     let r = Reservoir::new(&c.clone().check().unwrap(), 5).unwrap();
     let nonzero = r.w().iter().filter(|v| **v != 0.0).count() as f64 / (400.0 * 400.0);
     assert!((nonzero - 0.5).abs() < 0.01, "connectivity {nonzero}");
@@ -90,7 +91,7 @@ fn config_errors_name_the_field() {
     let e = ReservoirConfig { leak_rate: 1.5, ..config(10) }.check().unwrap_err();
     assert_eq!(e.field, "leak_rate");
     let mut c = config(10);
-    c.inputs = vec![Coupling { fraction: 0.5, scale: 0.2 }, Coupling { fraction: 0.5, scale: f64::NAN }];
+    c.inputs = vec![Coupling::new(0.5, 0.2), Coupling::new(0.5, f64::NAN)];
     let e = c.check().unwrap_err();
     assert_eq!(e.field, "inputs[1].scale");
     assert!(e.to_string().contains("inputs[1].scale"), "{e}");
@@ -132,7 +133,7 @@ fn sine_free_run_keeps_period_and_amplitude_for_100k_steps() {
         let settings = TrainSettings { noise_variance: 1e-6, ..quick_settings() };
         let tr = train(&res, &sine_data(), &settings).unwrap();
         let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
-        let m = TrainedCpg::new(res, tr, settings, out, vec![], String::new(), 1.0).unwrap();
+        let m = TrainedCpg::new(res, tr, settings, Scoring::default(), out, vec![], String::new(), 1.0).unwrap();
         let mut g = Generator::new(&m);
         let mut last = Vec::with_capacity(2000);
         for k in 0..100_000 {
@@ -171,6 +172,7 @@ fn training_is_identical_with_one_and_two_threads() {
             res.clone(),
             t,
             quick_settings(),
+            Scoring::default(),
             vec![OutputChannel { name: "y".into(), mean: 0.0, std: 1.0 }],
             vec![],
             String::new(),
@@ -199,7 +201,7 @@ fn validation_curve_covers_the_grid_and_the_choice_is_its_minimum() {
 #[test]
 fn generator_rejects_bad_controls_without_touching_the_state() {
     let mut c = config(50);
-    c.inputs = vec![Coupling { fraction: 0.5, scale: 0.2 }];
+    c.inputs = vec![Coupling::new(0.5, 0.2)];
     let res = Reservoir::new(&c.check().unwrap(), 4).unwrap();
     let mut data = sine_data();
     for s in [&mut data.train, &mut data.warmup, &mut data.validation] {
@@ -210,6 +212,7 @@ fn generator_rejects_bad_controls_without_touching_the_state() {
         res,
         tr,
         quick_settings(),
+        Scoring::default(),
         vec![OutputChannel { name: "y".into(), mean: 1.0, std: 2.0 }],
         vec!["u".into()],
         String::new(),
@@ -255,10 +258,127 @@ fn model_file_round_trip_and_every_kind_of_damage() {
     flipped[k] ^= 0x04;
     assert!(reason(&flipped).contains("checksum"));
     let mut other_version = bytes.clone();
-    other_version[8] = 2;
-    assert!(reason(&other_version).contains("format version 2"));
+    other_version[8] = 1;
+    assert!(reason(&other_version).contains("format version 1"));
+    // A valid checksum over fields that make no sense is refused too.
+    let bad = |f: &dyn Fn(&mut TrainedCpg)| {
+        let mut b = m.clone();
+        f(&mut b);
+        reason(&b.to_bytes().unwrap())
+    };
+    for rate in [0.0, -120.0, f64::NAN, f64::INFINITY, 1e7, 1e308] {
+        assert!(bad(&|b| b.provenance.sample_rate_hz = rate).contains("sample rate"), "rate {rate}");
+    }
+    assert!(bad(&|b| b.outputs[0].std = 1e308).contains("standard deviation"));
+    assert!(bad(&|b| b.outputs[0].mean = f64::NAN).contains("mean"));
+    assert!(bad(&|b| b.outputs[0].name = "a,b".into()).contains("comma"));
+    assert!(bad(&|b| b.outputs[0].name = "a\nb".into()).contains("control character"));
     let mut padded = bytes.clone();
     padded.push(0);
     assert!(reason(&padded).contains("padded"));
     assert!(matches!(TrainedCpg::load(&dir.path().join("missing.cpg")), Err(Error::Io { .. })));
+}
+
+#[test]
+fn a_tempo_input_multiplies_the_leak_rate() {
+    // Leak 0.2 with the tempo input held at 2 is exactly leak 0.4 (the input
+    // itself drives nothing here: scale 0).
+    let mut a = config(60);
+    a.leak_rate = 0.2;
+    a.inputs = vec![Coupling::new(0.5, 0.0)];
+    a.tempo_input = Some(0);
+    let mut b = config(60);
+    b.leak_rate = 0.4;
+    b.inputs = vec![Coupling::new(0.5, 0.0)];
+    let (ra, rb) = (Reservoir::new(&a.check().unwrap(), 3).unwrap(), Reservoir::new(&b.check().unwrap(), 3).unwrap());
+    let seq = Sequence { outputs: sine(300, 0), controls: vec![2.0; 300] };
+    let sa = teacher_forced_states(&ra, &[0.0; 60], &seq).unwrap();
+    let sb = teacher_forced_states(&rb, &[0.0; 60], &seq).unwrap();
+    assert_eq!(sa, sb);
+    // At u = 1 it is leak 0.2, not 0.4.
+    let seq1 = Sequence { outputs: sine(300, 0), controls: vec![1.0; 300] };
+    assert_ne!(teacher_forced_states(&ra, &[0.0; 60], &seq1).unwrap(), sb);
+    // A tempo input must name an input.
+    let mut bad = config(60);
+    bad.tempo_input = Some(0);
+    assert!(bad.check().is_err());
+}
+
+#[test]
+fn an_input_center_shifts_what_drives_the_neurons() {
+    // (u − 2) with center 2 drives the reservoir as u − 2 without one.
+    let mut a = config(60);
+    a.inputs = vec![Coupling { fraction: 0.5, scale: 0.3, center: 2.0 }];
+    let mut b = config(60);
+    b.inputs = vec![Coupling::new(0.5, 0.3)];
+    let (ra, rb) = (Reservoir::new(&a.check().unwrap(), 5).unwrap(), Reservoir::new(&b.check().unwrap(), 5).unwrap());
+    let u: Vec<f64> = (0..300).map(|k| 1.0 + (k as f64 / 30.0).sin()).collect();
+    let sa = teacher_forced_states(&ra, &[0.0; 60], &Sequence { outputs: sine(300, 0), controls: u.clone() }).unwrap();
+    let shifted: Vec<f64> = u.iter().map(|v| v - 2.0).collect();
+    let sb = teacher_forced_states(&rb, &[0.0; 60], &Sequence { outputs: sine(300, 0), controls: shifted }).unwrap();
+    let worst = sa.iter().zip(&sb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(worst < 1e-5, "states differ by {worst}");
+}
+
+fn orbit_data(hold: bool) -> TrainingData {
+    let p = (8.0 * std::f64::consts::PI).round() as usize; // the sine's period, rounded: 25 samples
+    let cycle: Vec<f64> = (0..p).map(|k| AMP * (2.0 * std::f64::consts::PI * k as f64 / p as f64).sin()).collect();
+    let steps = 3000;
+    let stays = vec![OrbitStay { end: steps, window: 8 * p, cycle, rate: p as f64 / (8.0 * std::f64::consts::PI) }];
+    let holds = if hold { vec![Hold { from: 100, len: 6, values: vec![AMP + 2.0] }] } else { vec![] };
+    let mut d = sine_data();
+    d.validation = Sequence::outputs_only(sine(steps, 1200));
+    d.scoring = Scoring { score: Score::Orbit(stays), holds };
+    d
+}
+
+#[test]
+fn a_readout_chosen_by_the_orbit_score_keeps_period_and_amplitude() {
+    let res = Reservoir::new(&config(200).check().unwrap(), 1).unwrap();
+    let orbit = TrainSettings { noise_variance: 0.0, n_noise_draws: 1, ..quick_settings() };
+    let tr = train(&res, &orbit_data(true), &orbit).unwrap();
+    assert!(tr.curve.iter().all(|v| v.nmse >= 0.0), "orbit scores are distances");
+    let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
+    let m =
+        TrainedCpg::new(res.clone(), tr, orbit.clone(), Scoring::default(), out, vec![], String::new(), 1.0).unwrap();
+    let mut g = Generator::new(&m);
+    let y: Vec<f64> = (0..20_000).map(|_| g.step(&[]).unwrap()[0]).collect();
+    let end = &y[18_000..];
+    let amp = half_range(end) / AMP;
+    assert!((amp - 1.0).abs() < 0.05, "amplitude ratio {amp} after 20,000 steps");
+    let period = estimate_period(end, 15, 40).unwrap();
+    assert!((period / (8.0 * std::f64::consts::PI) - 1.0).abs() < 0.01, "period {period}");
+    // A hold changes the validation run, hence the scores.
+    let (c_hold, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(true), &orbit).unwrap();
+    let (c_free, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(false), &orbit).unwrap();
+    assert_ne!(c_hold[0].nmse, c_free[0].nmse);
+    // A hold outside the run is refused.
+    let mut bad = orbit_data(true);
+    bad.scoring.holds[0].from = 10_000;
+    assert!(validate(&res, &[candidate(&res, 1e-3)], &bad, &orbit).is_err());
+}
+
+fn candidate(res: &Reservoir, penalty: f64) -> Candidate {
+    let h = harvest(res, &sine_data().train, 200).unwrap();
+    let path = cpg_regression::RidgePath::new(h.states.as_ref(), h.targets.as_ref()).unwrap();
+    Candidate { penalty, readout: path.solve(penalty).unwrap() }
+}
+
+#[test]
+fn teacher_noise_is_seeded_and_the_rule_can_prefer_larger_penalties() {
+    let res = Reservoir::new(&config(80).check().unwrap(), 2).unwrap();
+    let s = TrainSettings { teacher_noise: 0.05, ..quick_settings() };
+    let (a, b) = (train(&res, &sine_data(), &s).unwrap(), train(&res, &sine_data(), &s).unwrap());
+    assert_eq!(a, b);
+    let c = train(&res, &sine_data(), &TrainSettings { noise_seed: 8, ..s.clone() }).unwrap();
+    assert_ne!(a.readout, c.readout, "another seed, other noise");
+    let clean = train(&res, &sine_data(), &quick_settings()).unwrap();
+    assert_ne!(a.readout, clean.readout);
+    // Every candidate within a huge tolerance: the largest penalty wins.
+    let wide = train(&res, &sine_data(), &TrainSettings { prefer_larger_within: 1e12, ..quick_settings() }).unwrap();
+    assert_eq!(wide.penalty, 10.0);
+    let best = clean.curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    let chosen = clean.curve.iter().find(|v| v.penalty == clean.penalty).unwrap().nmse;
+    assert_eq!(chosen, best, "with no tolerance the best score wins");
+    assert!(train(&res, &sine_data(), &TrainSettings { teacher_noise: -1.0, ..quick_settings() }).is_err());
 }

@@ -1,0 +1,351 @@
+//! One function per subcommand.
+
+mod fk;
+mod inspect;
+
+pub use fk::run as fk;
+pub use inspect::run as inspect;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use cpg_hoap2::{ChannelMap, Robot};
+use cpg_lab::measure::{free_run, recovery, stability};
+use cpg_lab::{Config, ControlSchedule};
+use cpg_mocap::{Channel, Motion, Skeleton, write_amc};
+use cpg_reservoir::TrainedCpg;
+
+use crate::output::write_atomic;
+
+/// A path without `.`/`..` components, for messages.
+fn tidy(p: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            std::path::Component::ParentDir if out.file_name().is_some() => {
+                out.pop();
+            }
+            std::path::Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+/// `cpg train`.
+pub fn train(config: &Path, output: Option<&Path>) -> anyhow::Result<()> {
+    let mut c = Config::load(config)?;
+    if let Some(o) = output {
+        c.output.model = o.to_owned();
+    }
+    let start = Instant::now();
+    eprintln!("preparing the data of {} …", config.display());
+    let p = cpg_lab::prepare::prepare(&c)?;
+    eprintln!("data: {}", p.description);
+    for n in &p.notes {
+        eprintln!("note: {n}");
+    }
+    let rc = cpg_lab::train::reservoir_config(&c, p.outputs.len())?;
+    let s = cpg_lab::train::train_settings(&c)?;
+    eprintln!(
+        "training a {}-neuron reservoir (seed {}): {} samples, {} penalties × {} noise draws, score {} …",
+        rc.n_neurons,
+        c.reservoir.seed,
+        p.data.train.len(p.outputs.len()),
+        s.penalties.len(),
+        s.n_noise_draws,
+        c.training.score
+    );
+    let model = cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)?;
+    model.save(&c.output.model)?;
+    let pv = &model.provenance;
+    let best = pv.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    if cpg_lab::train::penalty_at_edge(&model) {
+        eprintln!(
+            "warning: the chosen penalty {:.2e} is at the edge of the grid; the best may lie beyond it",
+            pv.chosen_penalty
+        );
+    }
+    println!(
+        "trained in {:.2} s: penalty {:.2e} (validation score {best:.4}, one-step training NMSE {:.2e}) → {}",
+        start.elapsed().as_secs_f64(),
+        pv.chosen_penalty,
+        pv.train_nmse,
+        tidy(&c.output.model).display()
+    );
+    Ok(())
+}
+
+fn schedule(m: &TrainedCpg, values: Option<&str>, file: Option<&Path>) -> anyhow::Result<ControlSchedule> {
+    match (values, file) {
+        (Some(_), Some(_)) => bail!("give either --control or --control-file, not both"),
+        (Some(v), None) => Ok(ControlSchedule::parse_values(v, &m.controls)?),
+        (None, Some(f)) => {
+            let text = std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+            Ok(ControlSchedule::parse_csv(&text, f, &m.controls)?)
+        }
+        (None, None) if m.controls.is_empty() => Ok(ControlSchedule::none()),
+        (None, None) => {
+            bail!("the model has control inputs [{}]: give --control or --control-file", m.controls.join(", "))
+        }
+    }
+}
+
+fn steps(seconds: f64, rate: f64) -> anyhow::Result<usize> {
+    if !(seconds.is_finite() && seconds > 0.0) {
+        bail!("--seconds {seconds}: expected a positive duration");
+    }
+    Ok((seconds * rate).round() as usize)
+}
+
+/// The model's outputs in their own units, frame-major.
+fn run_units(m: &TrainedCpg, controls: &ControlSchedule, n: usize) -> anyhow::Result<Vec<f64>> {
+    let d = m.outputs.len();
+    let mut y = free_run(m, controls, n, None)?;
+    for (k, v) in y.iter_mut().enumerate() {
+        let o = &m.outputs[k % d];
+        *v = *v * o.std + o.mean;
+    }
+    Ok(y)
+}
+
+fn unit_suffix(name: &str) -> &'static str {
+    if name.ends_with(".rx") || name.ends_with(".ry") || name.ends_with(".rz") { "_deg" } else { "" }
+}
+
+/// `cpg generate`.
+pub fn generate(
+    model: &Path,
+    seconds: f64,
+    control: Option<&str>,
+    control_file: Option<&Path>,
+    format: &str,
+    skeleton: Option<&Path>,
+    output: &Path,
+) -> anyhow::Result<()> {
+    let m = TrainedCpg::load(model)?;
+    let rate = m.provenance.sample_rate_hz;
+    let n = steps(seconds, rate)?;
+    let controls = schedule(&m, control, control_file)?;
+    let d = m.outputs.len();
+    match format {
+        "csv" => {
+            let y = run_units(&m, &controls, n)?;
+            write_atomic(output, |w| {
+                write!(w, "time_s")?;
+                for o in &m.outputs {
+                    write!(w, ",{}{}", o.name, unit_suffix(&o.name))?;
+                }
+                writeln!(w)?;
+                for k in 0..n {
+                    write!(w, "{:.6}", k as f64 / rate)?;
+                    for v in &y[k * d..(k + 1) * d] {
+                        write!(w, ",{v:.6}")?;
+                    }
+                    writeln!(w)?;
+                }
+                Ok(())
+            })?
+        }
+        "amc" => {
+            let sk = match (skeleton, &m.skeleton_asf) {
+                (Some(p), _) => Skeleton::from_file(p)?,
+                (None, Some(text)) => {
+                    cpg_mocap::parse_asf(&format!("the skeleton stored in {}", model.display()), text.as_bytes())
+                        .map_err(cpg_mocap::Error::from)?
+                }
+                (None, None) => bail!("{} stores no skeleton: give --skeleton FILE.asf", model.display()),
+            };
+            let channels: Vec<Channel> = m
+                .outputs
+                .iter()
+                .map(|o| {
+                    Channel::parse(&o.name)
+                        .with_context(|| format!("output '{}' is not a mocap channel (bone.dof)", o.name))
+                })
+                .collect::<anyhow::Result<_>>()?;
+            let y = run_units(&m, &controls, n)?;
+            let motion = Motion::new(channels, y, rate)?;
+            let text = write_amc(&sk, &motion)?;
+            write_atomic(output, |w| Ok(w.write_all(text.as_bytes())?))?;
+        }
+        other => bail!("--format {other}: expected csv or amc"),
+    }
+    eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) to {}", output.display());
+    Ok(())
+}
+
+/// An asset of this checkout: the path as given, else the same path under the workspace root.
+fn asset(p: &Path) -> PathBuf {
+    if p.exists() || p.is_absolute() {
+        return p.to_owned();
+    }
+    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(p);
+    if here.exists() { tidy(&here) } else { p.to_owned() }
+}
+
+/// `cpg hoap2`'s arguments.
+pub struct Hoap2<'a> {
+    pub model: &'a Path,
+    pub seconds: f64,
+    pub control: Option<&'a str>,
+    pub control_file: Option<&'a Path>,
+    pub rate_hz: Option<f64>,
+    pub urdf: &'a Path,
+    pub map: &'a Path,
+    pub output: &'a Path,
+}
+
+/// `cpg hoap2`.
+pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
+    let m = TrainedCpg::load(a.model)?;
+    let robot = Robot::from_urdf_file(&asset(a.urdf))?;
+    let map = ChannelMap::load(&asset(a.map))?;
+    let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+    let missing: Vec<&str> = map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
+    if !missing.is_empty() {
+        bail!(
+            "the model generates [{}]; the joint map also needs [{}] (train on those channels, or give a --map that uses only the model's)",
+            names.join(", "),
+            missing.join(", ")
+        );
+    }
+    let rate = m.provenance.sample_rate_hz;
+    let n = steps(a.seconds, rate)?;
+    let controls = schedule(&m, a.control, a.control_file)?;
+    let y = run_units(&m, &controls, n)?;
+    let mut t = map.apply(&robot, &names, &y, rate)?;
+    if let Some(r) = a.rate_hz {
+        t = t.resample(r).context("resampling")?;
+    }
+    let csv = t.to_csv();
+    write_atomic(a.output, |w| Ok(w.write_all(csv.as_bytes())?))?;
+    eprintln!(
+        "wrote {} frames at {} Hz of {} HOAP-2 joints (rad) to {}",
+        t.n_frames(),
+        t.rate_hz,
+        t.joints.len(),
+        a.output.display()
+    );
+    eprintln!("{:<14} {:>9} {:>12} {:>10} {:>10}", "joint", "clamped", "max excess", "min (deg)", "max (deg)");
+    for c in &t.clamps.joints {
+        eprintln!(
+            "{:<14} {:>8.1}% {:>10.2}° {:>10.1} {:>10.1}",
+            c.joint,
+            100.0 * c.n_clamped as f64 / c.n_frames.max(1) as f64,
+            c.max_excess_rad.to_degrees(),
+            c.min_rad.to_degrees(),
+            c.max_rad.to_degrees()
+        );
+    }
+    Ok(())
+}
+
+/// One control setting judged by `cpg evaluate`.
+#[derive(serde::Serialize)]
+struct Judged {
+    teacher: String,
+    controls: Vec<f64>,
+    stability: cpg_lab::measure::Stability,
+    recovery: cpg_lab::measure::Recovery,
+}
+
+/// `cpg evaluate`.
+pub fn evaluate(
+    model: &Path,
+    seconds: f64,
+    control: Option<&str>,
+    control_file: Option<&Path>,
+    json: bool,
+) -> anyhow::Result<()> {
+    let m = TrainedCpg::load(model)?;
+    let rate = m.provenance.sample_rate_hz;
+    if m.teachers.is_empty() {
+        bail!(
+            "{}: the model has no teacher cycle (it was not trained on a looped periodic signal), so there is nothing to compare its rhythm with",
+            model.display()
+        );
+    }
+    let n = steps(seconds, rate)?;
+    let d = m.outputs.len();
+    // The settings judged: the one given, or every teacher's.
+    let settings: Vec<(ControlSchedule, &cpg_reservoir::Teacher)> = match (control, control_file) {
+        (None, None) => m.teachers.iter().map(|t| (ControlSchedule::Constant(t.controls.clone()), t)).collect(),
+        _ => {
+            let s = schedule(&m, control, control_file)?;
+            let mut last = vec![0.0; m.controls.len()];
+            s.fill(usize::MAX / 2, rate, &mut last);
+            let t = m.teacher_for(&last).context("no teacher")?;
+            vec![(s, t)]
+        }
+    };
+    let mut out = Vec::new();
+    for (s, t) in settings {
+        let p = t.cycle.len() / d;
+        let push = cpg_lab::experiment::stability::push_for(&cpg_lab::config::PushSection::default(), t, d, rate);
+        let release = push.at + push.len;
+        if n < release + 4 * p {
+            bail!(
+                "--seconds {seconds}: too short for the push at 2 s and 4 cycles after it ({:.1} s)",
+                (release + 4 * p) as f64 / rate
+            );
+        }
+        let y = free_run(&m, &s, n, None)?;
+        let after = (40 * p).min(n - release);
+        let pushed = free_run(&m, &s, release + after, Some(&push))?;
+        let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;
+        out.push(Judged {
+            teacher: t.label.clone(),
+            controls: t.controls.clone(),
+            stability: stability(&y, d, t, 0, rate),
+            recovery: rec,
+        });
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!("{}: {n} steps ({seconds} s) of free run per control setting", model.display());
+    for j in &out {
+        let st = &j.stability;
+        let ctl = if j.controls.is_empty() {
+            String::new()
+        } else {
+            format!(" at controls [{}]", j.controls.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "))
+        };
+        println!("teacher '{}'{ctl}: period {:.2} steps", j.teacher, st.teacher.period_steps);
+        match (st.end.period_steps, st.decayed_at_s) {
+            (_, Some(t)) => println!("  decayed at {t:.1} s: no rhythm at the end"),
+            (Some(pe), None) => println!(
+                "  period at the end: {pe:.2} steps ({:+.2} % of the teacher's)",
+                100.0 * (pe / st.teacher.period_steps - 1.0)
+            ),
+            (None, None) => println!("  no period found at the end"),
+        }
+        for (k, o) in m.outputs.iter().enumerate() {
+            println!(
+                "  {}: half range at the end {:.3} (normalised units; teacher {:.3}, {:+.1} %)",
+                o.name,
+                st.end.amplitude[k],
+                st.teacher.amplitude[k],
+                100.0 * (st.amplitude_ratio(k) - 1.0)
+            );
+        }
+        println!("  phase-aligned NMSE of the last window: {:.4}", st.end.aligned_nmse);
+        println!(
+            "  converged (the rhythm no longer changes after the first minute): {}",
+            if st.converged { "yes" } else { "no" }
+        );
+        println!("  accurate ({}): {}", cpg_lab::experiment::stability::RULE, if st.accurate { "yes" } else { "no" });
+        let r = &j.recovery;
+        let s = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("after {v:.2} s"));
+        println!(
+            "  push (output held at the cycle's maximum + 2 σ for 50 ms at 2 s): back on the teacher's orbit {}, on the unperturbed twin {}, phase shift {:+.3} cycles",
+            s(r.orbit_s),
+            s(r.twin_s),
+            r.phase_shift_cycles
+        );
+    }
+    Ok(())
+}

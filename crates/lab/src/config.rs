@@ -1,0 +1,716 @@
+//! The training and experiment configuration (TOML), documented for users in
+//! `docs/config.md`.
+//!
+//! Paths are relative to the file that names them. Unknown keys are errors,
+//! so a misspelt option is reported instead of silently ignored, and every
+//! error names the field in the file's own words (`training.penalty_log10`)
+//! and its line.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// The largest configuration file read, bytes.
+pub const MAX_CONFIG_BYTES: usize = 1 << 20;
+
+/// A whole configuration file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// What to learn.
+    pub data: DataSection,
+    /// The reservoir: a preset plus overrides.
+    #[serde(default)]
+    pub reservoir: ReservoirSection,
+    /// How the readout and its penalty are chosen.
+    #[serde(default)]
+    pub training: TrainingSection,
+    /// Where the model goes.
+    pub output: OutputSection,
+    /// The test protocol run by the report on this model (optional).
+    pub experiment: Option<ExperimentSection>,
+    /// The file this configuration was read from (not a key of the file).
+    #[serde(skip)]
+    pub source: PathBuf,
+}
+
+/// `[data]`: the motion, the channels to learn, and how they become a training sequence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataSection {
+    /// The ASF skeleton.
+    pub skeleton: PathBuf,
+    /// Capture rate of the AMC files, Hz (AMC does not store it).
+    #[serde(default = "default_rate")]
+    pub rate_hz: f64,
+    /// Channels to learn: names (`lfemur.rx`), globs (`lfemur.*`) or groups
+    /// (`legs`, `arms`, `hoap2`); they become the CPG's outputs, in this order.
+    pub channels: Vec<String>,
+    /// Names of the control inputs (empty: none).
+    #[serde(default)]
+    pub controls: Vec<String>,
+    /// One or more motion segments, each with constant control values.
+    pub segments: Vec<SegmentSection>,
+    /// Cut a seamless loop of this many gait cycles out of each segment and
+    /// repeat it (0: use the segments as recorded).
+    #[serde(default = "default_cycles")]
+    pub loop_cycles: usize,
+    /// With loops: samples of each segment's repeated loop in one block of the training sequence.
+    #[serde(default = "default_samples")]
+    pub samples_per_segment: usize,
+    /// With loops: how many times the sequence of segment blocks is repeated.
+    #[serde(default = "default_repeats")]
+    pub repeats: usize,
+    /// With loops: seconds of phase-continuous blend from one segment's cycle
+    /// to the next between blocks, while the controls ramp (0: blocks abut).
+    #[serde(default)]
+    pub morph_s: f64,
+    /// Shortest and longest gait period searched, seconds.
+    #[serde(default = "default_period")]
+    pub period_s: [f64; 2],
+    /// The channel whose rhythm sets the period (default: the most regular one).
+    pub period_channel: Option<String>,
+    /// Largest seam excess of a loop (in standard deviations) accepted.
+    #[serde(default = "default_seam")]
+    pub max_seam_excess: f64,
+    /// Play one segment's loop at a smoothly varying rate set by a control input.
+    pub tempo: Option<TempoSection>,
+}
+
+/// `[[data.segments]]`: one motion file (or a part of it).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentSection {
+    /// The AMC file.
+    pub motion: PathBuf,
+    /// Control values held during this segment, one per control input.
+    #[serde(default)]
+    pub controls: Vec<f64>,
+    /// Frame range `[start, end)`, 0-based (default: all).
+    pub frames: Option<[usize; 2]>,
+    /// A name for reports (default: the file name).
+    pub label: Option<String>,
+}
+
+/// `[data.tempo]`: the loop played at a rate `u(t)` that drifts smoothly
+/// between knots; the control input named `control` carries `u`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TempoSection {
+    /// The control input that carries the rate.
+    pub control: String,
+    /// Lowest and highest rate (1: as recorded).
+    pub range: [f64; 2],
+    /// Samples between random knots of the rate.
+    #[serde(default = "default_knot_every")]
+    pub knot_every: usize,
+    /// Training samples.
+    pub samples: usize,
+    /// Seed of the knots.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Rates at which the model is judged (its teachers).
+    pub teachers: Vec<f64>,
+}
+
+/// `[reservoir]`: the paper's preset plus overrides.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReservoirSection {
+    /// Base values: `wyffels-schrauwen-2009`.
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    /// Seed of the random weights.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Number of neurons.
+    pub n_neurons: Option<usize>,
+    /// Fraction of non-zero recurrent weights.
+    pub connectivity: Option<f64>,
+    /// Spectral radius of W.
+    pub spectral_radius: Option<f64>,
+    /// Leak rate.
+    pub leak_rate: Option<f64>,
+    /// Interval of the uniform per-neuron bias.
+    pub bias_range: Option<[f64; 2]>,
+    /// Output feedback coupling.
+    pub feedback: Option<CouplingSection>,
+    /// One coupling per control input (default: 50 % at ±0.2 each).
+    pub inputs: Option<Vec<CouplingSection>>,
+    /// `tanh` or `logistic`.
+    pub activation: Option<String>,
+    /// `f32` or `f64`.
+    pub precision: Option<String>,
+    /// The control input (by name) that multiplies the leak rate.
+    pub tempo_input: Option<String>,
+}
+
+impl Default for ReservoirSection {
+    fn default() -> Self {
+        ReservoirSection {
+            preset: default_preset(),
+            seed: default_seed(),
+            n_neurons: None,
+            connectivity: None,
+            spectral_radius: None,
+            leak_rate: None,
+            bias_range: None,
+            feedback: None,
+            inputs: None,
+            activation: None,
+            precision: None,
+            tempo_input: None,
+        }
+    }
+}
+
+/// A coupling: `fraction` of the neurons at `±scale`, driven by `(u − center)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSection {
+    /// Fraction of neurons connected.
+    pub fraction: f64,
+    /// Weight magnitude.
+    pub scale: f64,
+    /// Input value that drives nothing.
+    #[serde(default)]
+    pub center: f64,
+}
+
+/// `[training]`: washout, the penalty grid and how candidates are validated.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainingSection {
+    /// Teacher-forced steps discarded before regression.
+    #[serde(default = "default_washout")]
+    pub washout: usize,
+    /// Length of the validation free run, samples (the `nmse` score).
+    #[serde(default = "default_validation")]
+    pub validation_samples: usize,
+    /// Variance of the state noise during validation.
+    #[serde(default = "default_noise")]
+    pub noise_variance: f64,
+    /// Noise realisations per candidate.
+    #[serde(default = "default_draws")]
+    pub noise_draws: usize,
+    /// Seed of the validation noise.
+    #[serde(default = "default_seed")]
+    pub noise_seed: u64,
+    /// Penalties `10^start, 10^(start−step), …, 10^stop`.
+    #[serde(default = "default_penalties")]
+    pub penalty_log10: PenaltyRange,
+    /// `nmse` (the paper's) or `orbit` (ours).
+    #[serde(default = "default_score")]
+    pub score: String,
+    /// Standard deviation of noise on the fed-back teacher while harvesting (normalised units; 0: none).
+    #[serde(default)]
+    pub teacher_noise: f64,
+    /// Take the largest penalty scoring within this fraction of the best (0: the best).
+    #[serde(default)]
+    pub prefer_larger_within: f64,
+    /// Settings of the `orbit` score.
+    pub orbit: Option<OrbitSection>,
+}
+
+impl Default for TrainingSection {
+    fn default() -> Self {
+        TrainingSection {
+            washout: default_washout(),
+            validation_samples: default_validation(),
+            noise_variance: default_noise(),
+            noise_draws: default_draws(),
+            noise_seed: default_seed(),
+            penalty_log10: default_penalties(),
+            score: default_score(),
+            teacher_noise: 0.0,
+            prefer_larger_within: 0.0,
+            orbit: None,
+        }
+    }
+}
+
+/// A log-spaced penalty grid.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a table {start, step, stop}, e.g. { start = 1, step = 0.1, stop = -8 }")]
+pub struct PenaltyRange {
+    /// log10 of the first penalty.
+    pub start: f64,
+    /// Step between log10 values (> 0).
+    pub step: f64,
+    /// log10 of the last penalty.
+    pub stop: f64,
+}
+
+/// `[training.orbit]`: the validation run visits each teacher's control
+/// setting in turn and scores how close it stays to that teacher's orbit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitSection {
+    /// Seconds each setting is held.
+    #[serde(default = "default_stay")]
+    pub stay_s: f64,
+    /// Seconds of cosine ramp from one setting to the next.
+    #[serde(default = "default_ramp")]
+    pub ramp_s: f64,
+    /// Scoring starts this long after a setting is reached, seconds.
+    #[serde(default = "default_settle")]
+    pub settle_s: f64,
+    /// Teachers visited, by index (default: all, in order).
+    pub sequence: Option<Vec<usize>>,
+    /// A push during the first stay.
+    pub push: Option<PushSection>,
+}
+
+/// The paper's perturbation: the fed-back output held at an outlier.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PushSection {
+    /// When the hold starts, seconds.
+    #[serde(default = "default_push_at")]
+    pub at_s: f64,
+    /// How long the output is held, seconds.
+    #[serde(default = "default_push_hold")]
+    pub hold_s: f64,
+    /// The held value: the teacher cycle's maximum plus this many standard deviations.
+    #[serde(default = "default_push_above")]
+    pub above_max: f64,
+}
+
+impl Default for PushSection {
+    fn default() -> Self {
+        PushSection { at_s: default_push_at(), hold_s: default_push_hold(), above_max: default_push_above() }
+    }
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSection {
+    /// The model file to write.
+    pub model: PathBuf,
+}
+
+/// `[experiment]`: the test protocol the report runs on this configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentSection {
+    /// Short name (`E1`).
+    pub id: String,
+    /// Title for the report.
+    pub title: String,
+    /// `paper` or `ours`.
+    pub protocol: String,
+    /// One line on what this configuration tries (for the report's table of what was tried).
+    pub method: Option<String>,
+    /// Reservoir seeds `seed, seed + 1, …` tried.
+    #[serde(default = "default_seeds")]
+    pub seeds: u64,
+    /// Seeds in a quick run.
+    #[serde(default = "default_quick_seeds")]
+    pub quick_seeds: u64,
+    /// E1–E3: long free run and perturbation.
+    pub stability: Option<StabilitySection>,
+    /// E4: frequency modulation.
+    pub frequency: Option<FrequencySection>,
+    /// E5: gait switching.
+    pub gaits: Option<GaitsSection>,
+    /// E6: phase coupling of many outputs.
+    pub coupling: Option<CouplingTestSection>,
+}
+
+/// `[experiment.stability]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StabilitySection {
+    /// Length of the long free run, seconds.
+    #[serde(default = "default_long")]
+    pub long_run_s: f64,
+    /// The same in a quick run.
+    #[serde(default = "default_quick_long")]
+    pub quick_long_run_s: f64,
+    /// Samples of the first free-run window compared step by step with the teacher.
+    #[serde(default = "default_first")]
+    pub first_samples: usize,
+    /// The perturbation.
+    #[serde(default)]
+    pub push: PushSection,
+}
+
+/// `[experiment.frequency]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrequencySection {
+    /// Control values held one after the other.
+    pub plateaus: Vec<f64>,
+    /// Seconds each plateau is held.
+    #[serde(default = "default_plateau_hold")]
+    pub hold_s: f64,
+    /// Seconds of cosine ramp between plateaus.
+    #[serde(default = "default_plateau_ramp")]
+    pub ramp_s: f64,
+    /// The paper's Fig. 3 test: `[time_s, value]` knots joined by cosine ramps.
+    pub figure: Vec<[f64; 2]>,
+}
+
+/// `[experiment.gaits]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaitsSection {
+    /// Times of the two switches (to the second teacher and back), seconds.
+    pub switch_at_s: [f64; 2],
+    /// Seconds of cosine ramp of a smooth switch.
+    #[serde(default = "default_ramp")]
+    pub ramp_s: f64,
+    /// Length of the test run, seconds.
+    pub run_s: f64,
+    /// A switch has settled when the output is within this many standard
+    /// deviations of the new gait's orbit for a cycle.
+    #[serde(default = "default_threshold")]
+    pub threshold_sd: f64,
+}
+
+/// `[experiment.coupling]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingTestSection {
+    /// Length of the free run, seconds.
+    pub run_s: f64,
+    /// The same in a quick run.
+    pub quick_run_s: f64,
+    /// Reservoir size in a quick run.
+    pub quick_neurons: usize,
+    /// The channel the others are phased against.
+    pub reference: String,
+    /// Channels drawn as phase portraits against the reference.
+    pub portraits: Vec<String>,
+    /// The robot the generated joints are mapped onto (optional).
+    pub robot: Option<RobotSection>,
+}
+
+/// A robot description and the channel map onto its joints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSection {
+    /// The URDF file.
+    pub urdf: PathBuf,
+    /// The channel-to-joint map (TSV).
+    pub map: PathBuf,
+}
+
+fn default_rate() -> f64 {
+    120.0
+}
+fn default_cycles() -> usize {
+    1
+}
+fn default_samples() -> usize {
+    2200
+}
+fn default_repeats() -> usize {
+    1
+}
+fn default_period() -> [f64; 2] {
+    [0.3, 2.5]
+}
+fn default_seam() -> f64 {
+    0.5
+}
+fn default_knot_every() -> usize {
+    700
+}
+fn default_preset() -> String {
+    "wyffels-schrauwen-2009".into()
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_washout() -> usize {
+    200
+}
+fn default_validation() -> usize {
+    500
+}
+fn default_noise() -> f64 {
+    1e-3
+}
+fn default_draws() -> usize {
+    5
+}
+fn default_penalties() -> PenaltyRange {
+    PenaltyRange { start: 1.0, step: 0.1, stop: -8.0 }
+}
+fn default_score() -> String {
+    "nmse".into()
+}
+fn default_stay() -> f64 {
+    10.0
+}
+fn default_ramp() -> f64 {
+    1.0
+}
+fn default_settle() -> f64 {
+    6.5
+}
+fn default_push_at() -> f64 {
+    2.0
+}
+fn default_push_hold() -> f64 {
+    0.05
+}
+fn default_push_above() -> f64 {
+    2.0
+}
+fn default_seeds() -> u64 {
+    10
+}
+fn default_quick_seeds() -> u64 {
+    3
+}
+fn default_long() -> f64 {
+    900.0
+}
+fn default_quick_long() -> f64 {
+    200.0
+}
+fn default_first() -> usize {
+    500
+}
+fn default_plateau_hold() -> f64 {
+    8.0
+}
+fn default_plateau_ramp() -> f64 {
+    2.0
+}
+fn default_threshold() -> f64 {
+    0.25
+}
+
+/// The directory relative paths in `path` are resolved against.
+pub(crate) fn base_dir(path: &Path) -> &Path {
+    path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
+}
+
+/// Reads a configuration file: bounded in size, UTF-8.
+pub(crate) fn read_text(path: &Path) -> Result<String> {
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    let bad = |message: String| Error::Config { file: path.to_owned(), line: None, field: String::new(), message };
+    if meta.len() > MAX_CONFIG_BYTES as u64 {
+        return Err(bad(format!("{} bytes; a configuration has at most {MAX_CONFIG_BYTES}", meta.len())));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    String::from_utf8(bytes)
+        .map_err(|e| bad(format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))
+}
+
+/// Deserialises TOML text into `T`; errors name the field path and the line.
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, file: &Path) -> Result<T> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let bad = |line: Option<usize>, field: String, message: String| Error::Config {
+        file: file.to_owned(),
+        line,
+        field,
+        message,
+    };
+    let de = toml::de::Deserializer::parse(text)
+        .map_err(|e| bad(e.span().map(|s| line_of(text, s.start)), String::new(), e.message().to_owned()))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let field = e.path().to_string();
+        let inner = e.into_inner();
+        let line = inner.span().map(|s| line_of(text, s.start));
+        bad(line, if field == "." { String::new() } else { field }, inner.message().to_owned())
+    })
+}
+
+/// Line (1-based) of byte offset `at` in `text`.
+fn line_of(text: &str, at: usize) -> usize {
+    text.as_bytes()[..at.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+impl Config {
+    /// An error about `field` of this configuration.
+    pub fn error(&self, field: &str, message: impl Into<String>) -> Error {
+        Error::Config { file: self.source.clone(), line: None, field: field.to_owned(), message: message.into() }
+    }
+
+    /// Parses configuration text. `file` names it in errors; relative paths
+    /// are resolved against `base` (the file's directory).
+    pub fn from_toml(text: &str, file: &Path, base: &Path) -> Result<Config> {
+        let mut c: Config = parse_toml(text, file)?;
+        let fix = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        c.source = file.to_owned();
+        fix(&mut c.data.skeleton);
+        fix(&mut c.output.model);
+        for s in &mut c.data.segments {
+            fix(&mut s.motion);
+        }
+        if let Some(r) = c.experiment.as_mut().and_then(|e| e.coupling.as_mut()).and_then(|k| k.robot.as_mut()) {
+            fix(&mut r.urdf);
+            fix(&mut r.map);
+        }
+        c.check(file)?;
+        Ok(c)
+    }
+
+    /// Reads and checks a configuration file; relative paths are resolved against its directory.
+    pub fn load(path: &Path) -> Result<Config> {
+        let text = read_text(path)?;
+        Config::from_toml(&text, path, base_dir(path))
+    }
+
+    /// Checks what serde cannot: lengths that must agree, ranges, names.
+    fn check(&self, file: &Path) -> Result<()> {
+        let bad = |field: &str, message: String| Error::Config {
+            file: file.to_owned(),
+            line: None,
+            field: field.to_owned(),
+            message,
+        };
+        let d = &self.data;
+        if d.channels.is_empty() {
+            return Err(bad("data.channels", "is empty; name at least one channel such as \"lfemur.rx\"".into()));
+        }
+        if d.segments.is_empty() {
+            return Err(bad("data.segments", "needs at least one [[data.segments]] with a motion file".into()));
+        }
+        if !(d.rate_hz.is_finite()
+            && (cpg_reservoir::MIN_SAMPLE_RATE_HZ..=cpg_reservoir::MAX_SAMPLE_RATE_HZ).contains(&d.rate_hz))
+        {
+            return Err(bad(
+                "data.rate_hz",
+                format!(
+                    "{}; expected {} to {} Hz",
+                    d.rate_hz,
+                    cpg_reservoir::MIN_SAMPLE_RATE_HZ,
+                    cpg_reservoir::MAX_SAMPLE_RATE_HZ
+                ),
+            ));
+        }
+        for (k, name) in d.controls.iter().enumerate() {
+            if name.is_empty() || name.chars().any(|c| c == ',' || c == '=' || c.is_whitespace() || c.is_control()) {
+                return Err(bad(
+                    &format!("data.controls[{k}]"),
+                    format!("{name:?}: a control name is a non-empty word without commas, '=' or spaces"),
+                ));
+            }
+            if d.controls[..k].contains(name) {
+                return Err(bad(&format!("data.controls[{k}]"), format!("'{name}' is named twice")));
+            }
+        }
+        let tempo = d.tempo.as_ref();
+        for (k, s) in d.segments.iter().enumerate() {
+            let expected = if tempo.is_some() { 0 } else { d.controls.len() };
+            if s.controls.len() != expected {
+                return Err(bad(
+                    &format!("data.segments[{k}].controls"),
+                    format!(
+                        "has {} values; {} ({})",
+                        s.controls.len(),
+                        if tempo.is_some() {
+                            "with [data.tempo] the control comes from the tempo, so give none".to_owned()
+                        } else {
+                            format!("[data] controls names {}", d.controls.len())
+                        },
+                        d.controls.join(", ")
+                    ),
+                ));
+            }
+            if let Some(k2) = s.controls.iter().position(|v| !v.is_finite()) {
+                return Err(bad(&format!("data.segments[{k}].controls[{k2}]"), "is not a finite number".into()));
+            }
+        }
+        let [lo, hi] = d.period_s;
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi && hi <= 60.0) {
+            return Err(bad("data.period_s", format!("[{lo}, {hi}]; expected 0 < shortest < longest <= 60 s")));
+        }
+        if !(d.morph_s.is_finite() && (0.0..=10.0).contains(&d.morph_s)) {
+            return Err(bad("data.morph_s", format!("{}; expected 0 to 10 s", d.morph_s)));
+        }
+        if !(d.max_seam_excess.is_finite() && d.max_seam_excess >= 0.0) {
+            return Err(bad("data.max_seam_excess", format!("{}; expected a number >= 0", d.max_seam_excess)));
+        }
+        if d.repeats == 0 {
+            return Err(bad("data.repeats", "must be at least 1".into()));
+        }
+        if let Some(t) = tempo {
+            if d.controls != [t.control.clone()] {
+                return Err(bad(
+                    "data.tempo.control",
+                    format!("'{}': with a tempo, [data] controls must be exactly [\"{}\"]", t.control, t.control),
+                ));
+            }
+            if d.segments.len() != 1 || d.loop_cycles == 0 {
+                return Err(bad(
+                    "data.tempo",
+                    "plays one segment's loop: give one segment and loop_cycles >= 1".into(),
+                ));
+            }
+            let [a, b] = t.range;
+            if !(a.is_finite() && b.is_finite() && 0.0 < a && a <= b && b <= 100.0) {
+                return Err(bad("data.tempo.range", format!("[{a}, {b}]; expected 0 < low <= high <= 100")));
+            }
+            if t.teachers.is_empty() || t.teachers.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(bad("data.tempo.teachers", "needs one or more rates > 0".into()));
+            }
+            if t.knot_every == 0 {
+                return Err(bad("data.tempo.knot_every", "must be at least 1".into()));
+            }
+        }
+        if let Some(name) = &self.reservoir.tempo_input
+            && !d.controls.contains(name)
+        {
+            return Err(bad(
+                "reservoir.tempo_input",
+                format!("'{name}' is not a control input (data.controls: [{}])", d.controls.join(", ")),
+            ));
+        }
+        let t = &self.training;
+        let p = t.penalty_log10;
+        if !(p.start.is_finite() && p.stop.is_finite() && p.step.is_finite() && p.step > 0.0) {
+            return Err(bad("training.penalty_log10", "needs finite {start, step, stop} with step > 0".into()));
+        }
+        match t.score.as_str() {
+            "nmse" => {
+                if t.orbit.is_some() {
+                    return Err(bad("training.orbit", "is used only with score = \"orbit\"".into()));
+                }
+            }
+            "orbit" => {
+                let o = t.orbit.as_ref().ok_or_else(|| {
+                    bad("training.orbit", "score = \"orbit\" needs a [training.orbit] section".into())
+                })?;
+                for (name, v) in [("stay_s", o.stay_s), ("ramp_s", o.ramp_s), ("settle_s", o.settle_s)] {
+                    if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
+                        return Err(bad(&format!("training.orbit.{name}"), format!("{v}; expected 0 to 600 s")));
+                    }
+                }
+                if o.settle_s >= o.stay_s {
+                    return Err(bad(
+                        "training.orbit.settle_s",
+                        format!("{} leaves nothing to score in a stay of {} s", o.settle_s, o.stay_s),
+                    ));
+                }
+            }
+            other => return Err(bad("training.score", format!("'{other}'; valid: nmse (the paper's), orbit"))),
+        }
+        if !(t.noise_variance.is_finite() && t.noise_variance >= 0.0) {
+            return Err(bad("training.noise_variance", format!("{}; expected a number >= 0", t.noise_variance)));
+        }
+        if t.noise_draws == 0 {
+            return Err(bad("training.noise_draws", "must be at least 1".into()));
+        }
+        if !(t.teacher_noise.is_finite() && (0.0..=10.0).contains(&t.teacher_noise)) {
+            return Err(bad("training.teacher_noise", format!("{}; expected 0 to 10", t.teacher_noise)));
+        }
+        if !(t.prefer_larger_within.is_finite() && (0.0..=100.0).contains(&t.prefer_larger_within)) {
+            return Err(bad("training.prefer_larger_within", format!("{}; expected 0 to 100", t.prefer_larger_within)));
+        }
+        Ok(())
+    }
+}

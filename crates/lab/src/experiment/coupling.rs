@@ -1,0 +1,218 @@
+//! E6: many outputs (the 22 HOAP-2 joints) and their phase coupling over a
+//! long free run (wyffels & Schrauwen 2009, Fig. 5).
+
+use serde::Serialize;
+
+use cpg_hoap2::{ChannelMap, ClampReport, JointTrajectory, Robot};
+use cpg_mocap::cycle::{align_to_cycle, lag};
+use cpg_reservoir::TrainedCpg;
+
+use super::{Header, Options, Progress, SeedModel, header, section};
+use crate::config::{Config, CouplingTestSection};
+use crate::error::{Error, Result};
+use crate::measure::{column, free_run};
+use crate::prepare::prepare;
+use crate::schedule::ControlSchedule;
+use crate::train::train_prepared;
+
+/// Largest drift of a joint's phase lag over the run for the verdict, cycles.
+pub const DRIFT_TOLERANCE: f64 = 0.05;
+/// The rule of the E6 verdict, as printed beside it.
+pub const RULE: &str = "phase coupling kept: no joint's lag behind the reference drifts by 0.05 cycle or more between the first and the last 10 s";
+
+/// One joint.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LagRow {
+    /// The channel.
+    pub joint: String,
+    /// The teacher's lag behind the reference, cycles (cross-correlation of the teacher cycle).
+    pub teacher_lag: f64,
+    /// The model's lag behind the reference in the last 10 s, cycles (same method).
+    pub model_lag_end: f64,
+    /// The model's phase relative to the teacher's phase relation in the first 10 s, cycles
+    /// (0: exactly the teacher's lag; from aligning the joint's own teacher cycle).
+    pub deviation_start: f64,
+    /// The same in the last 10 s.
+    pub deviation_end: f64,
+    /// `deviation_end − deviation_start`, wrapped to (−0.5, 0.5].
+    pub drift: f64,
+    /// NMSE of the last cycle against the teacher at its best phase.
+    pub cycle_nmse: f64,
+}
+
+/// The HOAP-2 mapping of the last 10 s.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Hoap2 {
+    /// How often and how far each joint was clamped.
+    pub clamps: ClampReport,
+    /// The trajectory (radians).
+    #[serde(skip)]
+    pub trajectory: JointTrajectory,
+}
+
+/// One channel plotted against the reference channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Portrait {
+    /// The channel.
+    pub channel: String,
+    /// (reference, channel) over the whole recorded trial.
+    pub data: Vec<(f64, f64)>,
+    /// (reference, channel) over 10 s of the model's free run.
+    pub model: Vec<(f64, f64)>,
+}
+
+/// E6.
+#[derive(Debug, Clone, Serialize)]
+pub struct CouplingResult {
+    /// What was run.
+    pub header: Header,
+    /// How the model was trained.
+    pub model: SeedModel,
+    /// Free-run length, steps.
+    pub steps: usize,
+    /// Free-run length, seconds.
+    pub run_s: f64,
+    /// The reference channel.
+    pub reference: String,
+    /// Frames per teacher cycle (one frame is `1 / period` of a cycle: the lag resolution).
+    pub period_frames: usize,
+    /// One row per joint, in output order.
+    pub rows: Vec<LagRow>,
+    /// Largest |drift|, cycles.
+    pub worst_drift: f64,
+    /// Median per-joint cycle NMSE.
+    pub median_cycle_nmse: f64,
+    /// The verdict.
+    pub passed: bool,
+    /// The robot mapping, when the configuration names a robot.
+    pub hoap2: Option<Hoap2>,
+    /// Start of the portraits' model window, seconds.
+    pub portrait_from_s: f64,
+    /// Phase portraits against the reference, normalised.
+    #[serde(skip)]
+    pub portraits: Vec<Portrait>,
+    /// The last 10 s in the channels' units, frame-major.
+    #[serde(skip)]
+    pub last10_units: Vec<f64>,
+    /// The trained model (the comparison of families reuses it).
+    #[serde(skip)]
+    pub trained: Option<TrainedCpg>,
+}
+
+impl CouplingResult {
+    /// E6: the phase coupling holds.
+    pub fn verdict(&self) -> super::Verdict {
+        super::Verdict { passed: self.passed, rule: RULE }
+    }
+}
+
+fn wrap(x: f64) -> f64 {
+    ((x + 0.5).rem_euclid(1.0)) - 0.5
+}
+
+/// Runs E6 on configuration `c` (one seed: the configuration's).
+pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Progress) -> Result<CouplingResult> {
+    section(c)?;
+    let mut c = c.clone();
+    if opts.quick {
+        c.reservoir.n_neurons = Some(k.quick_neurons);
+    }
+    let prep = prepare(&c)?;
+    progress.start("training", 1);
+    let m = train_prepared(&c, &prep, c.reservoir.seed)?;
+    progress.finish();
+    let rate = c.data.rate_hz;
+    let d = prep.outputs.len();
+    let teacher = prep.teachers.first().ok_or_else(|| Error::Data("E6 needs a looped (periodic) segment".into()))?;
+    let p = teacher.cycle.len() / d;
+    let refc = prep.outputs.iter().position(|o| o.name == k.reference).ok_or_else(|| {
+        c.error("experiment.coupling.reference", format!("'{}' is not a learnt channel", k.reference))
+    })?;
+    let run_s = if opts.quick { k.quick_run_s } else { k.run_s };
+    let n = (run_s * rate).round() as usize;
+    let ten = (10.0 * rate) as usize;
+    if n < 2 * ten {
+        return Err(c.error("experiment.coupling.run_s", "must be at least 20 s"));
+    }
+    progress.start("free run", 1);
+    let y = free_run(&m, &ControlSchedule::none(), n, None)?;
+    progress.finish();
+    let start_win = &y[..ten * d];
+    let end_win = &y[(n - ten) * d..];
+    let teach = cpg_mocap::cycle::tile(&teacher.cycle, d, ten, 0);
+    let shift_of = |win: &[f64], ch: usize| -> f64 {
+        let cyc = column(&teacher.cycle, d, ch);
+        align_to_cycle(&column(win, d, ch)[..3 * p], &cyc, 1).0 as f64
+    };
+    let deviation = |win: &[f64], ch: usize| wrap((shift_of(win, ch) - shift_of(win, refc)) / p as f64);
+    let (align, _) = align_to_cycle(&end_win[(ten - p) * d..], &teacher.cycle, d);
+    let rows: Vec<LagRow> = prep
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(ch, o)| {
+            let ds = deviation(start_win, ch);
+            let de = deviation(end_win, ch);
+            let last = column(&end_win[(ten - p) * d..], d, ch);
+            let tc: Vec<f64> = (0..p).map(|q| teacher.cycle[((align + q) % p) * d + ch]).collect();
+            LagRow {
+                joint: o.name.clone(),
+                teacher_lag: lag(&column(&teach, d, refc), &column(&teach, d, ch), p / 2) / p as f64,
+                model_lag_end: lag(&column(end_win, d, refc), &column(end_win, d, ch), p / 2) / p as f64,
+                deviation_start: ds,
+                deviation_end: de,
+                drift: wrap(de - ds),
+                cycle_nmse: crate::experiment::stability::nmse(&last, &tc, 1),
+            }
+        })
+        .collect();
+    let worst_drift = rows.iter().map(|r| r.drift.abs()).fold(0.0, f64::max);
+    let median_cycle_nmse = {
+        let mut v: Vec<f64> = rows.iter().map(|r| r.cycle_nmse).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let last10_units: Vec<f64> =
+        end_win.iter().enumerate().map(|(i, v)| v * m.outputs[i % d].std + m.outputs[i % d].mean).collect();
+    let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+    let hoap2 = match &k.robot {
+        Some(r) => {
+            let robot = Robot::from_urdf_file(&r.urdf)?;
+            let map = ChannelMap::load(&r.map)?;
+            let trajectory = map.apply(&robot, &names, &last10_units, rate)?;
+            Some(Hoap2 { clamps: trajectory.clamps.clone(), trajectory })
+        }
+        None => None,
+    };
+    let from = ((500.0 * rate) as usize).min(n - ten);
+    let data = prep.segments.first().cloned().unwrap_or_default();
+    let portraits =
+        k.portraits
+            .iter()
+            .map(|name| {
+                let ch = names.iter().position(|x| x == name).ok_or_else(|| {
+                    c.error("experiment.coupling.portraits", format!("'{name}' is not a learnt channel"))
+                })?;
+                let dp = data.chunks_exact(d).map(|f| (f[refc], f[ch])).collect();
+                let mp = (from..from + ten).map(|q| (y[q * d + refc], y[q * d + ch])).collect();
+                Ok(Portrait { channel: name.clone(), data: dp, model: mp })
+            })
+            .collect::<Result<Vec<_>>>()?;
+    Ok(CouplingResult {
+        header: header(&c, &prep, m.reservoir.n_neurons())?,
+        model: SeedModel::of(&m, c.reservoir.seed),
+        steps: n,
+        run_s: n as f64 / rate,
+        reference: k.reference.clone(),
+        period_frames: p,
+        passed: worst_drift < DRIFT_TOLERANCE,
+        rows,
+        worst_drift,
+        median_cycle_nmse,
+        hoap2,
+        portrait_from_s: from as f64 / rate,
+        portraits,
+        last10_units,
+        trained: Some(m),
+    })
+}

@@ -1,0 +1,250 @@
+//! E5: switching between two learnt gaits with two control inputs
+//! (wyffels & Schrauwen 2009, Fig. 4).
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{Header, Options, Progress, SeedModel, header, seeds, train_seeds};
+use crate::config::{Config, GaitsSection};
+use crate::error::Result;
+use crate::measure::{TeacherShape, column, free_run, max_step, rhythm, settle_on_orbit};
+use crate::schedule::ControlSchedule;
+
+/// Largest relative period error of a gait for the verdict.
+pub const PERIOD_TOLERANCE: f64 = 0.02;
+/// Largest relative amplitude error of a gait for the verdict.
+pub const AMPLITUDE_TOLERANCE: f64 = 0.25;
+/// A smooth switch must settle on the new gait's orbit within this time, seconds.
+pub const SETTLE_S: f64 = 2.0;
+/// Seconds after the start of a switch over which its jumps are measured.
+pub const SWITCH_WINDOW_S: f64 = 2.0;
+/// Seconds before a switch (and before the end) over which a gait is judged.
+pub const GAIT_WINDOW_S: f64 = 3.0;
+/// The rule of the E5 verdict, as printed beside it.
+pub const RULE: &str = "both gaits (3 s windows before each switch and before the end) within 2 % of their teacher's period and 25 % of its amplitude; both smooth switches back on the new gait's orbit within 2 s of their start; no step-to-step change in the 2 s after a smooth switch larger than the largest in the two teacher cycles";
+
+/// A gait window of one seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GaitWindow {
+    /// The teacher it is judged against.
+    pub teacher: String,
+    /// Measured period, steps (`None`: decayed).
+    pub period_steps: Option<f64>,
+    /// Teacher period, steps.
+    pub teacher_period_steps: f64,
+    /// Worst channel's half range over the teacher's.
+    pub amplitude_ratio: f64,
+    /// Within both tolerances.
+    pub passed: bool,
+}
+
+/// One seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GaitsSeed {
+    /// How the model was trained.
+    pub model: SeedModel,
+    /// First gait, before the first switch.
+    pub first: GaitWindow,
+    /// Second gait, before the switch back.
+    pub second: GaitWindow,
+    /// First gait again, at the end.
+    pub first_again: GaitWindow,
+    /// Seconds from the start of each smooth switch until on the new gait's orbit.
+    pub settle_s: [Option<f64>; 2],
+    /// Largest step in the 2 s after each smooth switch.
+    pub max_jump_smooth: f64,
+    /// The same for the abrupt switch.
+    pub max_jump_abrupt: f64,
+    /// Every part of the rule held.
+    pub passed: bool,
+}
+
+/// Traces of the first seed.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Fig4 {
+    /// Each teacher's cycle tiled over 3 s (channel 0, normalised).
+    pub teachers: Vec<(String, Vec<f64>)>,
+    /// The smooth switch run.
+    pub smooth: Vec<f64>,
+    /// The abrupt switch run.
+    pub abrupt: Vec<f64>,
+    /// The second control during the smooth run.
+    pub smooth_control: Vec<f64>,
+    /// The second control during the abrupt run.
+    pub abrupt_control: Vec<f64>,
+}
+
+/// E5 over seeds.
+#[derive(Debug, Clone, Serialize)]
+pub struct GaitsResult {
+    /// What was run.
+    pub header: Header,
+    /// The two teachers.
+    pub teachers: Vec<TeacherShape>,
+    /// Largest step-to-step change in the teacher cycles.
+    pub data_step: f64,
+    /// Switch times, seconds.
+    pub switch_at_s: [f64; 2],
+    /// Smooth ramp, seconds.
+    pub ramp_s: f64,
+    /// Test length, seconds.
+    pub run_s: f64,
+    /// Per seed.
+    pub seeds: Vec<GaitsSeed>,
+    /// Figure traces of the first seed.
+    #[serde(skip)]
+    pub fig4: Fig4,
+}
+
+/// Fraction of seeds that must pass.
+pub const SEED_FRACTION: f64 = 0.8;
+
+impl GaitsResult {
+    /// Seeds that passed.
+    pub fn n_passed(&self) -> usize {
+        self.seeds.iter().filter(|s| s.passed).count()
+    }
+
+    /// E5: both gaits and both smooth switches.
+    pub fn verdict(&self) -> super::Verdict {
+        super::Verdict {
+            passed: super::enough(self.n_passed(), self.seeds.len(), SEED_FRACTION),
+            rule: "at least 80 % of the seeds pass (both gaits within 2 % of their teacher's period and 25 % of its amplitude, both smooth switches on the new gait's orbit within 2 s, no step after a smooth switch larger than the data's largest)",
+        }
+    }
+}
+
+/// The last control input of a schedule over `n` steps.
+fn last_control(s: &ControlSchedule, n: usize, rate: f64) -> Vec<f64> {
+    let u = s.width();
+    if u == 0 { Vec::new() } else { column(&s.rows(n, rate), u, u - 1) }
+}
+
+/// Runs E5 on configuration `c`.
+pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress) -> Result<GaitsResult> {
+    let seeds = seeds(c, opts)?;
+    let (prep, models) = train_seeds(c, &seeds, progress)?;
+    if prep.teachers.len() != 2 {
+        return Err(c.error("data.segments", format!("E5 needs two looped gaits; there are {}", prep.teachers.len())));
+    }
+    let rate = c.data.rate_hz;
+    let d = prep.outputs.len();
+    let (ta, tb) = (&prep.teachers[0], &prep.teachers[1]);
+    let [s1, s2] = g.switch_at_s;
+    if !(0.0 < s1 && s1 + g.ramp_s < s2 && s2 + g.ramp_s < g.run_s && s1 >= GAIT_WINDOW_S) {
+        return Err(
+            c.error("experiment.gaits", "needs 3 s <= first switch < second switch < run_s, with room for the ramps")
+        );
+    }
+    let smooth = ControlSchedule::Knots(vec![
+        (0.0, ta.controls.clone()),
+        (s1, ta.controls.clone()),
+        (s1 + g.ramp_s, tb.controls.clone()),
+        (s2, tb.controls.clone()),
+        (s2 + g.ramp_s, ta.controls.clone()),
+    ]);
+    let abrupt = ControlSchedule::Knots(vec![
+        (0.0, ta.controls.clone()),
+        (s1, ta.controls.clone()),
+        (s1, tb.controls.clone()),
+        (s2, tb.controls.clone()),
+        (s2, ta.controls.clone()),
+    ]);
+    let n = (g.run_s * rate).round() as usize;
+    let at = |s: f64| ((s * rate).round() as usize).min(n);
+    let tiled = |t: &cpg_reservoir::Teacher| {
+        let p = t.cycle.len() / d;
+        (0..p + 1).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
+    };
+    let data_step = max_step(&tiled(ta), d).max(max_step(&tiled(tb), d));
+    let shapes = [TeacherShape::of(ta, d), TeacherShape::of(tb, d)];
+    let window = |y: &[f64], end_s: f64, k: usize| -> GaitWindow {
+        let t = [ta, tb][k];
+        let w = &y[at(end_s - GAIT_WINDOW_S) * d..at(end_s) * d];
+        let r = rhythm(w, d, t, 0);
+        let sh = &shapes[k];
+        let amplitude_ratio = r
+            .amplitude
+            .iter()
+            .zip(&sh.amplitude)
+            .map(|(a, b)| a / b)
+            .fold(1.0, |worst: f64, x| if (x - 1.0).abs() > (worst - 1.0).abs() { x } else { worst });
+        let passed = r.period_steps.is_some_and(|p| (p / sh.period_steps - 1.0).abs() < PERIOD_TOLERANCE)
+            && (amplitude_ratio - 1.0).abs() < AMPLITUDE_TOLERANCE;
+        GaitWindow {
+            teacher: sh.label.clone(),
+            period_steps: r.period_steps,
+            teacher_period_steps: sh.period_steps,
+            amplitude_ratio,
+            passed,
+        }
+    };
+    progress.start("switching runs", seeds.len() as u64);
+    let per_seed: Result<Vec<(GaitsSeed, Option<Fig4>)>> = seeds
+        .par_iter()
+        .zip(&models)
+        .enumerate()
+        .map(|(i, (&seed, m))| {
+            let ys = free_run(m, &smooth, n, None)?;
+            let ya = free_run(m, &abrupt, n, None)?;
+            let first = window(&ys, s1, 0);
+            let second = window(&ys, s2, 1);
+            let first_again = window(&ys, g.run_s, 0);
+            let settle = [
+                settle_on_orbit(&ys[..at(s2) * d], d, &tb.cycle, at(s1), rate),
+                settle_on_orbit(&ys, d, &ta.cycle, at(s2), rate),
+            ];
+            let jump = |y: &[f64], s: f64| max_step(&y[at(s) * d..at(s + SWITCH_WINDOW_S) * d], d);
+            let max_jump_smooth = jump(&ys, s1).max(jump(&ys, s2));
+            let max_jump_abrupt = jump(&ya, s1).max(jump(&ya, s2));
+            let passed = first.passed
+                && second.passed
+                && first_again.passed
+                && settle.iter().all(|s| s.is_some_and(|v| v <= SETTLE_S))
+                && max_jump_smooth <= data_step;
+            let fig = (i == 0).then(|| {
+                let three = (GAIT_WINDOW_S * rate) as usize;
+                Fig4 {
+                    teachers: [ta, tb]
+                        .iter()
+                        .map(|t| {
+                            let p = t.cycle.len() / d;
+                            (t.label.clone(), (0..three).map(|k| t.cycle[(k % p) * d]).collect())
+                        })
+                        .collect(),
+                    smooth: column(&ys, d, 0),
+                    abrupt: column(&ya, d, 0),
+                    smooth_control: last_control(&smooth, n, rate),
+                    abrupt_control: last_control(&abrupt, n, rate),
+                }
+            });
+            progress.tick();
+            Ok((
+                GaitsSeed {
+                    model: SeedModel::of(m, seed),
+                    first,
+                    second,
+                    first_again,
+                    settle_s: settle,
+                    max_jump_smooth,
+                    max_jump_abrupt,
+                    passed,
+                },
+                fig,
+            ))
+        })
+        .collect();
+    progress.finish();
+    let per_seed = per_seed?;
+    let fig4 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
+    Ok(GaitsResult {
+        header: header(c, &prep, models[0].reservoir.n_neurons())?,
+        teachers: shapes.to_vec(),
+        data_step,
+        switch_at_s: g.switch_at_s,
+        ramp_s: g.ramp_s,
+        run_s: g.run_s,
+        seeds: per_seed.into_iter().map(|(s, _)| s).collect(),
+        fig4,
+    })
+}

@@ -1,0 +1,214 @@
+//! The experiments of wyffels & Schrauwen (2009), each the protocol of a
+//! configuration's `[experiment]` table, returning typed results. The report
+//! (`cargo xtask evaluate`) renders them; nothing here prints.
+
+pub mod coupling;
+pub mod families;
+pub mod frequency;
+pub mod gaits;
+pub mod stability;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::config::{Config, ExperimentSection};
+use crate::error::Result;
+use crate::prepare::{Prepared, SegmentCycle, prepare};
+use crate::train::{penalty_at_edge, train_prepared};
+use cpg_reservoir::TrainedCpg;
+
+/// Whether a claim of the paper was reproduced, and the rule that says so.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Verdict {
+    /// The rule held.
+    pub passed: bool,
+    /// The rule, as printed beside the verdict.
+    pub rule: &'static str,
+}
+
+/// Seeds needed for a verdict over seeds: at least `fraction` of them (rounded up).
+pub fn enough(passed: usize, seeds: usize, fraction: f64) -> bool {
+    seeds > 0 && passed as f64 >= (fraction * seeds as f64).ceil() - 1e-9
+}
+
+/// Reports how far a long experiment has come (the app draws a progress bar).
+pub trait Progress: Sync {
+    /// A task of `total` steps begins.
+    fn start(&self, label: &str, total: u64);
+    /// One step is done.
+    fn tick(&self);
+    /// The task is done.
+    fn finish(&self);
+}
+
+/// A progress report that shows nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Quiet;
+
+impl Progress for Quiet {
+    fn start(&self, _: &str, _: u64) {}
+    fn tick(&self) {}
+    fn finish(&self) {}
+}
+
+/// How big a run is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Options {
+    /// The quick variant: fewer seeds and shorter runs (the `quick_*` keys).
+    pub quick: bool,
+}
+
+/// How one seed's model was trained.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SeedModel {
+    /// Reservoir seed.
+    pub seed: u64,
+    /// Chosen ridge penalty.
+    pub penalty: f64,
+    /// Its validation score.
+    pub validation_score: f64,
+    /// The penalty is the first or the last of the grid.
+    pub penalty_at_edge: bool,
+}
+
+impl SeedModel {
+    /// The record of `m`, trained with `seed`.
+    pub fn of(m: &TrainedCpg, seed: u64) -> SeedModel {
+        let p = &m.provenance;
+        SeedModel {
+            seed,
+            penalty: p.chosen_penalty,
+            validation_score: p.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min),
+            penalty_at_edge: penalty_at_edge(m),
+        }
+    }
+}
+
+/// What every experiment reports about itself.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Header {
+    /// Short name (`E1`).
+    pub id: String,
+    /// Title.
+    pub title: String,
+    /// `paper` or `ours`.
+    pub protocol: String,
+    /// What the configuration tries.
+    pub method: String,
+    /// The configuration file.
+    pub config: String,
+    /// What the data preparation found (periods, loops, seams).
+    pub cycles: Vec<SegmentCycle>,
+    /// Notes of the data preparation.
+    pub notes: Vec<String>,
+    /// Validation score (`nmse` or `orbit`) and noise variance.
+    pub score: String,
+    /// Validation state-noise variance.
+    pub noise_variance: f64,
+    /// Number of penalties in the grid, and its ends (log10).
+    pub penalty_grid: (usize, f64, f64),
+    /// Reservoir size.
+    pub n_neurons: usize,
+}
+
+/// The results of one experiment configuration.
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Outcome {
+    /// E1–E3.
+    Stability(Box<stability::StabilityResult>),
+    /// E4.
+    Frequency(Box<frequency::FrequencyResult>),
+    /// E5.
+    Gaits(Box<gaits::GaitsResult>),
+    /// E6.
+    Coupling(Box<coupling::CouplingResult>),
+}
+
+impl Outcome {
+    /// The header.
+    pub fn header(&self) -> &Header {
+        match self {
+            Outcome::Stability(r) => &r.header,
+            Outcome::Frequency(r) => &r.header,
+            Outcome::Gaits(r) => &r.header,
+            Outcome::Coupling(r) => &r.header,
+        }
+    }
+
+    /// Seeds that met the experiment's target, and seeds run.
+    pub fn passed(&self) -> (usize, usize) {
+        match self {
+            Outcome::Stability(r) => (r.seeds.iter().filter(|s| s.stability.accurate).count(), r.seeds.len()),
+            Outcome::Frequency(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
+            Outcome::Gaits(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
+            Outcome::Coupling(r) => (usize::from(r.passed), 1),
+        }
+    }
+}
+
+/// The `[experiment]` section of `c`, or an error naming the file.
+pub fn section(c: &Config) -> Result<&ExperimentSection> {
+    c.experiment.as_ref().ok_or_else(|| c.error("experiment", "this configuration has no [experiment] section"))
+}
+
+/// The seeds an experiment runs: the configuration's seed and the following ones.
+pub fn seeds(c: &Config, opts: Options) -> Result<Vec<u64>> {
+    let e = section(c)?;
+    let n = if opts.quick { e.quick_seeds.min(e.seeds) } else { e.seeds };
+    if n == 0 || n > 1000 {
+        return Err(c.error("experiment.seeds", format!("{n}; expected 1 to 1000")));
+    }
+    Ok((0..n).map(|k| c.reservoir.seed + k).collect())
+}
+
+/// Prepares the data once and trains one model per seed (seeds in parallel,
+/// results in seed order: the same whatever the thread count).
+pub fn train_seeds(c: &Config, seeds: &[u64], progress: &dyn Progress) -> Result<(Prepared, Vec<TrainedCpg>)> {
+    let p = prepare(c)?;
+    progress.start("training", seeds.len() as u64);
+    let models: Result<Vec<TrainedCpg>> = seeds
+        .par_iter()
+        .map(|&s| {
+            let m = train_prepared(c, &p, s);
+            progress.tick();
+            m
+        })
+        .collect();
+    progress.finish();
+    Ok((p, models?))
+}
+
+/// The header of an experiment on configuration `c` with prepared data `p`.
+pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
+    let e = section(c)?;
+    let g = c.training.penalty_log10;
+    Ok(Header {
+        id: e.id.clone(),
+        title: e.title.clone(),
+        protocol: e.protocol.clone(),
+        method: e.method.clone().unwrap_or_else(|| format!("the {} protocol", e.protocol)),
+        config: c.source.display().to_string(),
+        cycles: p.cycles.clone(),
+        notes: p.notes.clone(),
+        score: c.training.score.clone(),
+        noise_variance: c.training.noise_variance,
+        penalty_grid: (crate::train::train_settings(c)?.penalties.len(), g.start, g.stop),
+        n_neurons,
+    })
+}
+
+/// Runs the experiment of `c`.
+pub fn run(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome> {
+    let e = section(c)?;
+    match (&e.stability, &e.frequency, &e.gaits, &e.coupling) {
+        (Some(s), None, None, None) => Ok(Outcome::Stability(Box::new(stability::run(c, s, opts, progress)?))),
+        (None, Some(f), None, None) => Ok(Outcome::Frequency(Box::new(frequency::run(c, f, opts, progress)?))),
+        (None, None, Some(g), None) => Ok(Outcome::Gaits(Box::new(gaits::run(c, g, opts, progress)?))),
+        (None, None, None, Some(k)) => Ok(Outcome::Coupling(Box::new(coupling::run(c, k, opts, progress)?))),
+        _ => Err(c.error(
+            "experiment",
+            "needs exactly one of [experiment.stability], [experiment.frequency], [experiment.gaits], [experiment.coupling]",
+        )),
+    }
+}

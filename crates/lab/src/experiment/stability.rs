@@ -1,0 +1,273 @@
+//! E1–E3: the learnt pattern, its long-run stability and its recovery from a
+//! push (wyffels & Schrauwen 2009, Fig. 2).
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use cpg_mocap::cycle::align_to_cycle;
+use cpg_reservoir::{Teacher, TrainedCpg};
+
+use super::{Options, Progress, SeedModel, header, seeds, train_seeds};
+use crate::config::{Config, PushSection, StabilitySection};
+use crate::error::{Error, Result};
+use crate::measure::{Push, Recovery, Stability, column, free_run, recovery, stability};
+use crate::schedule::ControlSchedule;
+
+/// The rule of a seed's E2 verdict, as printed beside it.
+pub const RULE: &str = "accurate: at the end of the run the period is within 1 % of the teacher's and every amplitude (half range) within 5 %";
+/// Largest median NMSE of the first free-run samples for the E1 verdict
+/// (for a sinusoid a pure phase slip φ costs 2(1 − cos φ): 0.1 allows about 18°).
+pub const E1_NMSE_LIMIT: f64 = 0.1;
+/// Fraction of seeds that must be accurate (E2) or recover (E3).
+pub const SEED_FRACTION: f64 = 0.9;
+
+/// One seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StabilitySeed {
+    /// How the model was trained.
+    pub model: SeedModel,
+    /// NMSE of the first free-run samples against the teacher's continuation, step by step.
+    pub first_nmse: f64,
+    /// The long run.
+    pub stability: Stability,
+    /// The push.
+    pub recovery: Recovery,
+}
+
+/// The push as applied.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PushInfo {
+    /// When, seconds.
+    pub at_s: f64,
+    /// How long, seconds (a whole number of steps).
+    pub hold_s: f64,
+    /// Held steps.
+    pub hold_steps: usize,
+    /// Standard deviations above the cycle's maximum.
+    pub above_max: f64,
+    /// Held value of each channel, normalised units.
+    pub held: Vec<f64>,
+    /// Held value of each channel, in the channel's units.
+    pub held_units: Vec<f64>,
+}
+
+/// Traces of the first seed for Fig. 2 (channel 0, in its units).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Fig2 {
+    /// The first free-run samples.
+    pub first_model: Vec<f64>,
+    /// The teacher over the same samples.
+    pub first_teacher: Vec<f64>,
+    /// The end of the long run.
+    pub end_model: Vec<f64>,
+    /// The teacher at its best phase over the same samples.
+    pub end_teacher: Vec<f64>,
+    /// Time of the first end sample, seconds.
+    pub end_start_s: f64,
+    /// The run with the push.
+    pub pushed: Vec<f64>,
+    /// Its unperturbed twin.
+    pub free: Vec<f64>,
+}
+
+/// E1–E3 over seeds.
+#[derive(Debug, Clone, Serialize)]
+pub struct StabilityResult {
+    /// What was run.
+    pub header: super::Header,
+    /// The channel the verdicts and figures use.
+    pub channel: String,
+    /// Long-run length, seconds.
+    pub long_run_s: f64,
+    /// Samples compared step by step at the start.
+    pub first_samples: usize,
+    /// The push.
+    pub push: PushInfo,
+    /// The teacher.
+    pub teacher: Teacher,
+    /// Per seed, in seed order.
+    pub seeds: Vec<StabilitySeed>,
+    /// Validation curve of the first seed: (penalty, score).
+    pub curve: Vec<(f64, f64)>,
+    /// Figure traces of the first seed.
+    #[serde(skip)]
+    pub fig2: Fig2,
+}
+
+impl StabilityResult {
+    /// Median NMSE of the first free-run samples over the seeds.
+    pub fn median_first_nmse(&self) -> f64 {
+        let mut v: Vec<f64> = self.seeds.iter().map(|s| s.first_nmse).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    }
+
+    /// Seeds accurate at the end of the long run.
+    pub fn n_accurate(&self) -> usize {
+        self.seeds.iter().filter(|s| s.stability.accurate).count()
+    }
+
+    /// Seeds whose rhythm no longer changes (whether or not it is the teacher's).
+    pub fn n_converged(&self) -> usize {
+        self.seeds.iter().filter(|s| s.stability.converged).count()
+    }
+
+    /// Seeds back on the teacher's orbit after the push.
+    pub fn n_recovered(&self) -> usize {
+        self.seeds.iter().filter(|s| s.recovery.orbit_s.is_some()).count()
+    }
+
+    /// E1: the pattern is learnt.
+    pub fn e1_verdict(&self) -> super::Verdict {
+        super::Verdict {
+            passed: self.median_first_nmse() < E1_NMSE_LIMIT,
+            rule: "median over seeds of the NMSE of the first free-run samples against the teacher below 0.1 (a sinusoid slipped by 18° in phase scores 0.1)",
+        }
+    }
+
+    /// E2: stable over the long run.
+    pub fn e2_verdict(&self) -> super::Verdict {
+        super::Verdict {
+            passed: super::enough(self.n_accurate(), self.seeds.len(), SEED_FRACTION),
+            rule: "at least 90 % of the seeds accurate at the end of the long run (period within 1 %, every amplitude within 5 % of the teacher's)",
+        }
+    }
+
+    /// E3: recovery from the push.
+    pub fn e3_verdict(&self) -> super::Verdict {
+        super::Verdict {
+            passed: super::enough(self.n_recovered(), self.seeds.len(), SEED_FRACTION),
+            rule: "at least 90 % of the seeds back on the teacher's orbit within 40 cycles of the push",
+        }
+    }
+}
+
+fn to_units(m: &TrainedCpg, c: usize, z: &[f64]) -> Vec<f64> {
+    let o = &m.outputs[c];
+    z.iter().map(|v| v * o.std + o.mean).collect()
+}
+
+/// The teacher continued from the end of a warm-up of `warmup_len` frames: `n` frames.
+pub fn continuation(t: &Teacher, d: usize, warmup_len: usize, n: usize) -> Vec<f64> {
+    let p = t.cycle.len() / d;
+    (0..n)
+        .flat_map(|k| {
+            let pos = (warmup_len + k) as f64 * t.rate;
+            let f = (pos.round() as usize) % p;
+            t.cycle[f * d..(f + 1) * d].to_vec()
+        })
+        .collect()
+}
+
+/// NMSE of `y` against `target` (both `t × d`), each channel divided by the target's variance, averaged.
+pub fn nmse(y: &[f64], target: &[f64], d: usize) -> f64 {
+    let t = target.len() / d;
+    (0..d)
+        .map(|c| {
+            let tc = column(target, d, c);
+            let m = tc.iter().sum::<f64>() / t as f64;
+            let var = (tc.iter().map(|v| (v - m).powi(2)).sum::<f64>() / t as f64).max(f64::MIN_POSITIVE);
+            column(y, d, c).iter().zip(&tc).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / t as f64 / var
+        })
+        .sum::<f64>()
+        / d as f64
+}
+
+/// The push of `p` for teacher `t`.
+pub fn push_for(p: &PushSection, t: &Teacher, d: usize, rate_hz: f64) -> Push {
+    let values =
+        (0..d).map(|c| column(&t.cycle, d, c).into_iter().fold(f64::NEG_INFINITY, f64::max) + p.above_max).collect();
+    Push { at: (p.at_s * rate_hz).round() as usize, len: ((p.hold_s * rate_hz).round() as usize).max(1), values }
+}
+
+/// Runs E1–E3 on configuration `c`.
+pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progress) -> Result<StabilityResult> {
+    let seeds = seeds(c, opts)?;
+    let (prep, models) = train_seeds(c, &seeds, progress)?;
+    let rate = c.data.rate_hz;
+    let long_s = if opts.quick { s.quick_long_run_s } else { s.long_run_s };
+    let long = (long_s * rate).round() as usize;
+    let teacher =
+        prep.teachers.first().cloned().ok_or_else(|| Error::Data("E1–E3 need a looped (periodic) segment".into()))?;
+    let d = prep.outputs.len();
+    let p = teacher.cycle.len() / d;
+    let push = push_for(&s.push, &teacher, d, rate);
+    let release = push.at + push.len;
+    let after = 40 * p;
+    if long < release + after || long < s.first_samples {
+        return Err(c.error(
+            "experiment.stability.long_run_s",
+            format!(
+                "{long_s} s is shorter than the push and 40 cycles after it ({} s)",
+                (release + after) as f64 / rate
+            ),
+        ));
+    }
+    let warmup_len = prep.data.warmup.len(d);
+    let controls = ControlSchedule::Constant(teacher.controls.clone());
+    let reference = 0;
+    progress.start("long free runs", seeds.len() as u64);
+    let per_seed: Result<Vec<(StabilitySeed, Option<Fig2>)>> = seeds
+        .par_iter()
+        .zip(&models)
+        .enumerate()
+        .map(|(i, (&seed, m))| {
+            let y = free_run(m, &controls, long, None)?;
+            let first = &y[..s.first_samples * d];
+            let first_teacher = continuation(&teacher, d, warmup_len, s.first_samples);
+            let st = stability(&y, d, &teacher, reference, rate);
+            let pushed = free_run(m, &controls, release + after, Some(&push))?;
+            let rec = recovery(&y[..(release + after) * d], &pushed, d, &teacher.cycle, release, rate)?;
+            let fig = (i == 0).then(|| {
+                let tail = &y[(long - 500.min(long)) * d..];
+                let tail0 = column(tail, d, 0);
+                let cyc0 = column(&teacher.cycle, d, 0);
+                let (shift, _) = align_to_cycle(&tail0, &cyc0, 1);
+                let end_teacher: Vec<f64> = (0..tail0.len()).map(|k| cyc0[(shift + k) % cyc0.len()]).collect();
+                let span = (10 * rate as usize).min(release + after);
+                Fig2 {
+                    first_model: to_units(m, 0, &column(first, d, 0)),
+                    first_teacher: to_units(m, 0, &column(&first_teacher, d, 0)),
+                    end_model: to_units(m, 0, &tail0),
+                    end_teacher: to_units(m, 0, &end_teacher),
+                    end_start_s: (long - tail0.len()) as f64 / rate,
+                    pushed: to_units(m, 0, &column(&pushed[..span * d], d, 0)),
+                    free: to_units(m, 0, &column(&y[..span * d], d, 0)),
+                }
+            });
+            progress.tick();
+            Ok((
+                StabilitySeed {
+                    model: SeedModel::of(m, seed),
+                    first_nmse: nmse(first, &first_teacher, d),
+                    stability: st,
+                    recovery: rec,
+                },
+                fig,
+            ))
+        })
+        .collect();
+    progress.finish();
+    let per_seed = per_seed?;
+    let m0 = &models[0];
+    let held_units = push.values.iter().enumerate().map(|(k, v)| v * m0.outputs[k].std + m0.outputs[k].mean).collect();
+    let fig2 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
+    Ok(StabilityResult {
+        header: header(c, &prep, m0.reservoir.n_neurons())?,
+        channel: m0.outputs[0].name.clone(),
+        long_run_s: long as f64 / rate,
+        first_samples: s.first_samples,
+        push: PushInfo {
+            at_s: push.at as f64 / rate,
+            hold_s: push.len as f64 / rate,
+            hold_steps: push.len,
+            above_max: s.push.above_max,
+            held: push.values.clone(),
+            held_units,
+        },
+        teacher,
+        seeds: per_seed.into_iter().map(|(s, _)| s).collect(),
+        curve: m0.provenance.validation_curve.iter().map(|v| (v.penalty, v.nmse)).collect(),
+        fig2,
+    })
+}

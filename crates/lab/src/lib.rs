@@ -1,0 +1,45 @@
+//! # cpg-lab
+//!
+//! What an experiment is, for users and for the report alike:
+//!
+//! - [`config`]: the TOML configuration that `cpg train` reads and that every
+//!   file in `experiments/` is written in (reference: `docs/config.md`).
+//! - [`prepare`]: from a configuration to training data: motions read,
+//!   channels selected (names, globs, groups: [`channels`]) and normalised,
+//!   seamless loops cut, the training sequence (blocks, repeats, morphs or a
+//!   tempo), the validation run (the paper's NMSE or our orbit score) and the
+//!   teachers, one per control setting.
+//! - [`train`]: a model from a configuration, within a stated memory budget.
+//! - [`schedule`]: control inputs over time.
+//! - [`measure`]: one definition each of a rhythm's period and amplitude,
+//!   *decayed*, *accurate*, *converged*, and of recovery after a push.
+//! - [`experiment`]: E1–E6 of wyffels & Schrauwen (2009) and the comparison
+//!   of generator families (Vakulenko et al. 2017), each returning typed
+//!   results that derive `Serialize`.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), cpg_lab::Error> {
+//! use cpg_lab::{Config, experiment};
+//! let config = Config::load("experiments/e1.toml".as_ref())?;
+//! let (model, _data) = cpg_lab::train::train(&config)?;     // the model `cpg train` writes
+//! model.save(&config.output.model)?;
+//! let outcome = experiment::run(&config, experiment::Options::default(), &experiment::Quiet)?;
+//! let (passed, seeds) = outcome.passed();
+//! # Ok(()) }
+//! ```
+//!
+//! Nothing here prints or knows where the checkout is: paths come from the
+//! configuration files, resolved against their own directory.
+
+pub mod channels;
+pub mod config;
+mod error;
+pub mod experiment;
+pub mod measure;
+pub mod prepare;
+pub mod schedule;
+pub mod train;
+
+pub use config::Config;
+pub use error::{Error, Result};
+pub use schedule::ControlSchedule;

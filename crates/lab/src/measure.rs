@@ -1,0 +1,288 @@
+//! How a generated rhythm is judged. Every verdict of the report and of
+//! `cpg evaluate` is built from these definitions, stated once:
+//!
+//! - **Rhythm of a window**: its period (autocorrelation of the reference
+//!   channel, searched from half to twice the teacher's period), the half
+//!   range of every channel, and the phase-aligned NMSE against the teacher
+//!   ([`cpg_reservoir::orbit_nmse`]). A window whose reference channel's half
+//!   range is below [`DECAYED_FRACTION`] of the teacher's has **decayed**: it
+//!   has no period.
+//! - **Accurate**: at the end of the run the period is within
+//!   [`PERIOD_TOLERANCE`] of the teacher's and every channel's half range
+//!   within [`AMPLITUDE_TOLERANCE`] of the teacher's.
+//! - **Converged**: the same tolerances between the window ending at the
+//!   first minute and the last window: the rhythm no longer changes, whether
+//!   or not it is the teacher's.
+//! - **Back on an orbit / on the twin**: distances are RMS over windows of a
+//!   quarter period, in standard deviations of the teacher cycle; to the
+//!   teacher's orbit at the best phase, to the unperturbed twin at the same
+//!   time. Recovered at the start of the first window after the release
+//!   from which a whole period of windows stays below the threshold
+//!   ([`RECOVERY_THRESHOLD_SD`]); 0 s means at once.
+
+use cpg_mocap::cycle::{estimate_period, half_range, lag, orbit_distance};
+use cpg_reservoir::{Generator, OrbitStay, Teacher, TrainedCpg, orbit_nmse};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::schedule::ControlSchedule;
+
+/// Relative period error allowed for "accurate" and "converged".
+pub const PERIOD_TOLERANCE: f64 = 0.01;
+/// Relative amplitude error allowed for "accurate" and "converged".
+pub const AMPLITUDE_TOLERANCE: f64 = 0.05;
+/// Below this fraction of the teacher's half range, a rhythm has decayed.
+pub const DECAYED_FRACTION: f64 = 0.05;
+/// Distance (teacher standard deviations) under which a run is back on an orbit.
+pub const RECOVERY_THRESHOLD_SD: f64 = 0.25;
+/// Length of the windows judged at the start and at the end of a run, seconds.
+pub const WINDOW_S: f64 = 10.0;
+
+/// Channel `c` of a frame-major signal with `d` channels.
+pub fn column(x: &[f64], d: usize, c: usize) -> Vec<f64> {
+    x.iter().skip(c).step_by(d).copied().collect()
+}
+
+/// The rhythm of one window.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rhythm {
+    /// Period in steps; `None` when the window has decayed or shows no rhythm.
+    pub period_steps: Option<f64>,
+    /// Half range of each channel, normalised units.
+    pub amplitude: Vec<f64>,
+    /// NMSE against the teacher at the best phase.
+    pub aligned_nmse: f64,
+    /// The reference channel's half range is below [`DECAYED_FRACTION`] of the teacher's.
+    pub decayed: bool,
+}
+
+/// What a teacher looks like in the measures: its period in steps and half ranges.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TeacherShape {
+    /// The teacher's label.
+    pub label: String,
+    /// Period in generated steps.
+    pub period_steps: f64,
+    /// Half range of each channel.
+    pub amplitude: Vec<f64>,
+}
+
+impl TeacherShape {
+    /// The shape of `t` for a model with `d` outputs.
+    pub fn of(t: &Teacher, d: usize) -> TeacherShape {
+        TeacherShape {
+            label: t.label.clone(),
+            period_steps: t.period_steps(d),
+            amplitude: (0..d).map(|c| half_range(&column(&t.cycle, d, c))).collect(),
+        }
+    }
+}
+
+/// The rhythm of `window` (`t × d`) against `teacher`, periods measured on channel `reference`.
+pub fn rhythm(window: &[f64], d: usize, teacher: &Teacher, reference: usize) -> Rhythm {
+    let shape = TeacherShape::of(teacher, d);
+    let amplitude: Vec<f64> = (0..d).map(|c| half_range(&column(window, d, c))).collect();
+    let decayed = amplitude[reference].is_nan() || amplitude[reference] < DECAYED_FRACTION * shape.amplitude[reference];
+    let p = shape.period_steps;
+    let col = column(window, d, reference);
+    let lo = ((p / 2.0).floor() as usize).max(2);
+    let hi = ((2.0 * p).ceil() as usize).min(col.len() / 2);
+    let period_steps = if decayed { None } else { estimate_period(&col, lo, hi) };
+    let stay =
+        OrbitStay { end: window.len() / d, window: window.len() / d, cycle: teacher.cycle.clone(), rate: teacher.rate };
+    Rhythm { period_steps, amplitude, aligned_nmse: orbit_nmse(window, &stay, d), decayed }
+}
+
+/// Whether `a` matches `b` within the tolerances (period and every amplitude).
+pub fn within(a_period: Option<f64>, a_amp: &[f64], b_period: f64, b_amp: &[f64]) -> bool {
+    let Some(p) = a_period else { return false };
+    (p / b_period - 1.0).abs() < PERIOD_TOLERANCE
+        && a_amp.iter().zip(b_amp).all(|(x, y)| (x / y - 1.0).abs() < AMPLITUDE_TOLERANCE)
+}
+
+/// A long free run judged against its teacher.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stability {
+    /// Steps run.
+    pub steps: usize,
+    /// The teacher.
+    pub teacher: TeacherShape,
+    /// The window ending at the first minute (or earlier for shorter runs).
+    pub early: Rhythm,
+    /// The last window.
+    pub end: Rhythm,
+    /// When the output decayed for good, seconds (`None`: it did not).
+    pub decayed_at_s: Option<f64>,
+    /// Period and amplitudes unchanged between the early and the last window.
+    pub converged: bool,
+    /// Period and amplitudes at the end within the tolerances of the teacher's.
+    pub accurate: bool,
+}
+
+impl Stability {
+    /// Relative period error at the end (`None` when decayed).
+    pub fn period_error(&self) -> Option<f64> {
+        self.end.period_steps.map(|p| p / self.teacher.period_steps - 1.0)
+    }
+
+    /// End amplitude over the teacher's, channel `c`.
+    pub fn amplitude_ratio(&self, c: usize) -> f64 {
+        self.end.amplitude[c] / self.teacher.amplitude[c]
+    }
+}
+
+/// Judges a run `y` (`steps × d`, normalised) against `teacher`.
+pub fn stability(y: &[f64], d: usize, teacher: &Teacher, reference: usize, rate_hz: f64) -> Stability {
+    let steps = y.len() / d;
+    let shape = TeacherShape::of(teacher, d);
+    let win = ((WINDOW_S * rate_hz) as usize).max((3.0 * shape.period_steps).ceil() as usize).min(steps);
+    let minute = ((60.0 * rate_hz) as usize).clamp(win, steps);
+    let early = rhythm(&y[(minute - win) * d..minute * d], d, teacher, reference);
+    let end = rhythm(&y[(steps - win) * d..], d, teacher, reference);
+    // Decayed for good: from the start of the first period-long window after
+    // which every window is below the decay fraction.
+    let p = (shape.period_steps.round() as usize).max(2);
+    let floor = DECAYED_FRACTION * shape.amplitude[reference];
+    let refc = column(y, d, reference);
+    let mut decayed_from = None;
+    for (i, w) in refc.chunks(p).enumerate().rev() {
+        if half_range(w) < floor {
+            decayed_from = Some(i * p);
+        } else {
+            break;
+        }
+    }
+    let decayed_at_s = decayed_from.filter(|&k| k < steps).map(|k| k as f64 / rate_hz);
+    let converged = !early.decayed
+        && within(end.period_steps, &end.amplitude, early.period_steps.unwrap_or(f64::NAN), &early.amplitude);
+    let accurate = within(end.period_steps, &end.amplitude, shape.period_steps, &shape.amplitude);
+    Stability { steps, teacher: shape, early, end, decayed_at_s, converged, accurate }
+}
+
+/// What a perturbed run did, against its unperturbed twin.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Recovery {
+    /// Seconds from the release until the run is back on the teacher's orbit.
+    pub orbit_s: Option<f64>,
+    /// Seconds from the release until it is back on its twin (same phase).
+    pub twin_s: Option<f64>,
+    /// Lag behind the twin long after the release, cycles (positive: behind).
+    pub phase_shift_cycles: f64,
+}
+
+/// Time from `release` until `dist` (indexed by window start) stays below
+/// `threshold` for `hold` windows.
+fn settle(dist: &[f64], release: usize, threshold: f64, hold: usize, rate_hz: f64) -> Option<f64> {
+    let mut run = 0;
+    for (k, v) in dist.iter().enumerate().skip(release) {
+        run = if *v < threshold { run + 1 } else { 0 };
+        if run >= hold.max(1) {
+            return Some((k + 1 - run - release) as f64 / rate_hz);
+        }
+    }
+    None
+}
+
+/// Compares a perturbed run `b` with its unperturbed twin `a` (both `T × d`,
+/// frame-major) after the step `release`, against the teacher `cycle`
+/// (`p × d`, the same units). At least 4 periods must follow the release.
+pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, rate_hz: f64) -> Result<Recovery> {
+    if d == 0
+        || a.len() != b.len()
+        || !a.len().is_multiple_of(d)
+        || cycle.len() < 2 * d
+        || !cycle.len().is_multiple_of(d)
+    {
+        return Err(Error::Data(format!(
+            "runs of {} and {} values and a cycle of {} values are not frames of {d} outputs",
+            a.len(),
+            b.len(),
+            cycle.len()
+        )));
+    }
+    let p = cycle.len() / d;
+    let t = a.len() / d;
+    if t < release + 4 * p {
+        return Err(Error::Data(format!(
+            "{} steps after the release are fewer than 4 cycles of {p}",
+            t.saturating_sub(release)
+        )));
+    }
+    let w = (p / 4).max(2);
+    let ending = orbit_distance(b, cycle, d, w);
+    let orbit: Vec<f64> = (0..t).map(|k| ending.get(k + w - 1).copied().unwrap_or(f64::INFINITY)).collect();
+    let sd = {
+        let m = cycle.iter().sum::<f64>() / cycle.len() as f64;
+        (cycle.iter().map(|v| (v - m).powi(2)).sum::<f64>() / cycle.len() as f64).sqrt().max(f64::MIN_POSITIVE)
+    };
+    let sq: Vec<f64> = a
+        .chunks_exact(d)
+        .zip(b.chunks_exact(d))
+        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).powi(2)).sum::<f64>() / d as f64)
+        .collect();
+    let twin: Vec<f64> = (0..t)
+        .map(|k| if k + w <= t { (sq[k..k + w].iter().sum::<f64>() / w as f64).sqrt() / sd } else { f64::INFINITY })
+        .collect();
+    let tail = release + (t - release - 2 * p).min((t - release) / 2);
+    let shift = lag(&column(&a[tail * d..], d, 0), &column(&b[tail * d..], d, 0), p / 2 + 1) / p as f64;
+    Ok(Recovery {
+        orbit_s: settle(&orbit, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
+        twin_s: settle(&twin, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
+        phase_shift_cycles: shift,
+    })
+}
+
+/// Seconds from step `from` until `y` (`T × d`) is on the orbit of `cycle`
+/// (`p × d`) for good: the same windows and threshold as [`recovery`].
+pub fn settle_on_orbit(y: &[f64], d: usize, cycle: &[f64], from: usize, rate_hz: f64) -> Option<f64> {
+    let p = cycle.len() / d.max(1);
+    let t = y.len() / d.max(1);
+    if p < 2 || t == 0 {
+        return None;
+    }
+    let w = (p / 4).max(2);
+    let ending = orbit_distance(y, cycle, d, w);
+    let dist: Vec<f64> = (0..t).map(|k| ending.get(k + w - 1).copied().unwrap_or(f64::INFINITY)).collect();
+    settle(&dist, from, RECOVERY_THRESHOLD_SD, p, rate_hz)
+}
+
+/// Largest step-to-step change of any channel of `y` (`T × d`).
+pub fn max_step(y: &[f64], d: usize) -> f64 {
+    y.chunks_exact(d.max(1))
+        .collect::<Vec<_>>()
+        .windows(2)
+        .fold(0.0, |m, w| w[0].iter().zip(w[1]).fold(m, |m, (a, b)| m.max((b - a).abs())))
+}
+
+/// A perturbation of a reservoir run: from `at`, for `len` steps, the fed-back
+/// outputs are held at `values` (normalised units).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Push {
+    /// First held step.
+    pub at: usize,
+    /// Held steps.
+    pub len: usize,
+    /// Held values, normalised.
+    pub values: Vec<f64>,
+}
+
+/// Runs `model` freely for `steps` from its start state under `controls`;
+/// returns the normalised outputs (`steps × D`). An optional push holds the fed-back outputs.
+pub fn free_run(model: &TrainedCpg, controls: &ControlSchedule, steps: usize, push: Option<&Push>) -> Result<Vec<f64>> {
+    let d = model.outputs.len();
+    let u = model.controls.len();
+    controls.check(u)?;
+    let rate = model.provenance.sample_rate_hz;
+    let mut g = Generator::new(model);
+    let mut y = Vec::with_capacity(steps * d);
+    let mut ctl = vec![0.0; u];
+    for k in 0..steps {
+        controls.fill(k, rate, &mut ctl);
+        match push {
+            Some(p) if (p.at..p.at + p.len).contains(&k) => g.step_clamped(&ctl, &p.values)?,
+            _ => g.step(&ctl)?,
+        };
+        y.extend_from_slice(g.normalised_output());
+    }
+    Ok(y)
+}

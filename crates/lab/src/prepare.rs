@@ -1,0 +1,528 @@
+//! From a configuration to training data: read the motions, select and
+//! normalise the channels, cut seamless loops, build the training sequence
+//! (blocks, repeats, morphs or a tempo), the validation run and the teachers.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use cpg_mocap::cycle::{autocorrelation, best_loop, estimate_period, tile};
+use cpg_mocap::{Motion, Skeleton, ZScore};
+use cpg_reservoir::{Hold, OrbitStay, OutputChannel, Score, Scoring, Sequence, Teacher, TrainingData};
+
+use crate::config::{Config, OrbitSection, TempoSection};
+use crate::error::{Error, Result};
+
+/// Most samples a training sequence may have (per output channel).
+pub const MAX_TRAINING_SAMPLES: usize = 2_000_000;
+/// Most steps of a validation run.
+pub const MAX_VALIDATION_STEPS: usize = 200_000;
+
+/// The period of one segment and the loop cut from it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SegmentCycle {
+    /// The segment's label.
+    pub label: String,
+    /// Frames in the segment.
+    pub frames: usize,
+    /// Period estimated by autocorrelation, frames.
+    pub period_frames: f64,
+    /// The channel whose rhythm gave the period.
+    pub period_channel: String,
+    /// First frame of the loop in the segment.
+    pub loop_start: usize,
+    /// Frames in the loop.
+    pub loop_len: usize,
+    /// Seam jump beyond a typical step, standard deviations.
+    pub seam_excess: f64,
+}
+
+/// Training data and what the model keeps of it.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Training, warm-up and validation sequences, and the validation score.
+    pub data: TrainingData,
+    /// The output channels with their normalisation.
+    pub outputs: Vec<OutputChannel>,
+    /// The rhythms the model is taught, one per control setting.
+    pub teachers: Vec<Teacher>,
+    /// One entry per segment when loops are cut.
+    pub cycles: Vec<SegmentCycle>,
+    /// Each segment as recorded, normalised (`frames × D`).
+    pub segments: Vec<Vec<f64>>,
+    /// The skeleton's ASF text.
+    pub skeleton_asf: String,
+    /// The parsed skeleton.
+    pub skeleton: Skeleton,
+    /// One line describing the data (stored in the model).
+    pub description: String,
+    /// Things the user should know (a possible harmonic, a large seam).
+    pub notes: Vec<String>,
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}
+
+fn column(x: &[f64], d: usize, c: usize) -> Vec<f64> {
+    x.iter().skip(c).step_by(d).copied().collect()
+}
+
+/// The gait period of a multi-channel signal (`t × d`): the estimate of the
+/// given channel, or of the channel whose autocorrelation at its own period
+/// is highest. The search runs from `lo` frames up to `hi` or three quarters
+/// of the signal, so that a trial shorter than two strides still shows one
+/// full stride. Returns (period, channel, autocorrelation at the period).
+pub fn gait_period(x: &[f64], d: usize, lo: usize, hi: usize, channel: Option<usize>) -> Option<(f64, usize, f64)> {
+    let t = x.len() / d.max(1);
+    let hi = hi.min(t - t / 4);
+    let one = |c: usize| {
+        let col = column(x, d, c);
+        let p = estimate_period(&col, lo.max(2), hi)?;
+        Some((p, c, autocorrelation(&col, p.round() as usize)))
+    };
+    match channel {
+        Some(c) => one(c),
+        None => (0..d).filter_map(one).max_by(|a, b| a.2.total_cmp(&b.2)),
+    }
+}
+
+/// A phase-continuous blend from cycle `a` to cycle `b` (normalised, `p × d`),
+/// or one cycle played on: sample at phase `ph` (in cycles) with weight `w` of `b`.
+fn blend_at(a: &[f64], b: &[f64], d: usize, ph: f64, w: f64, out: &mut Vec<f64>) {
+    let (pa, pb) = (a.len() / d, b.len() / d);
+    for c in 0..d {
+        let va = periodic(a, pa, d, ph * pa as f64, c);
+        let vb = if w > 0.0 { periodic(b, pb, d, ph * pb as f64, c) } else { 0.0 };
+        out.push((1.0 - w) * va + w * vb);
+    }
+}
+
+fn periodic(cycle: &[f64], p: usize, d: usize, pos: f64, c: usize) -> f64 {
+    let q = pos.rem_euclid(p as f64);
+    let i0 = (q.floor() as usize).min(p - 1);
+    let i1 = (i0 + 1) % p;
+    let t = q - i0 as f64;
+    cycle[i0 * d + c] + t * (cycle[i1 * d + c] - cycle[i0 * d + c])
+}
+
+fn cosine(t: f64) -> f64 {
+    0.5 - 0.5 * (PI * t.clamp(0.0, 1.0)).cos()
+}
+
+/// A cycle rotated so that it starts at the maximum of channel 0.
+fn rotate_to_max(cycle: &[f64], d: usize) -> Vec<f64> {
+    let p = cycle.len() / d;
+    let top = (0..p).fold(0, |b, k| if cycle[k * d] > cycle[b * d] { k } else { b });
+    (0..p).flat_map(|k| cycle[((top + k) % p) * d..((top + k) % p + 1) * d].iter().copied()).collect()
+}
+
+/// A smooth random control in `[lo, hi]`: knots every `every` samples, joined
+/// by cosine blends. Deterministic (xorshift from `seed`).
+pub fn smooth_random(n: usize, every: usize, lo: f64, hi: f64, seed: u64) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let every = every.max(1);
+    let knots: Vec<f64> = (0..=n / every + 1).map(|_| lo + (hi - lo) * next()).collect();
+    (0..n)
+        .map(|k| {
+            let (i, t) = (k / every, (k % every) as f64 / every as f64);
+            let w = 0.5 - 0.5 * (PI * t).cos();
+            knots[i] * (1.0 - w) + knots[i + 1] * w
+        })
+        .collect()
+}
+
+/// The motions of a configuration, read and normalised.
+struct Read {
+    skeleton_asf: String,
+    skeleton: Skeleton,
+    channels: Vec<String>,
+    parts: Vec<Motion>,
+    z: ZScore,
+    labels: Vec<String>,
+}
+
+fn read(c: &Config) -> Result<Read> {
+    let d_sec = &c.data;
+    let skeleton_asf = std::fs::read_to_string(&d_sec.skeleton)
+        .map_err(|source| Error::Io { path: d_sec.skeleton.clone(), source })?;
+    let skeleton = cpg_mocap::parse_asf(&d_sec.skeleton.display().to_string(), skeleton_asf.as_bytes())
+        .map_err(cpg_mocap::Error::from)?;
+    let channels = crate::channels::expand(&d_sec.channels, &skeleton).map_err(|m| c.error("data.channels", m))?;
+    let names: Vec<&str> = channels.iter().map(String::as_str).collect();
+    let mut parts = Vec::new();
+    for s in &d_sec.segments {
+        let m = Motion::from_amc_file(&s.motion, &skeleton, d_sec.rate_hz)?.select(&names)?;
+        parts.push(match s.frames {
+            Some([a, b]) => m.slice(a, b)?,
+            None => m,
+        });
+    }
+    let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
+    let z = ZScore::fit(&all)?;
+    let labels = d_sec.segments.iter().map(|s| s.label.clone().unwrap_or_else(|| file_name(&s.motion))).collect();
+    Ok(Read { skeleton_asf, skeleton, channels, parts, z, labels })
+}
+
+/// One seamless loop per segment (normalised, rotated to start at the
+/// reference channel's maximum when blocks are morphed), and what was found.
+fn loops(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<(Vec<Vec<f64>>, Vec<SegmentCycle>)> {
+    let d_sec = &c.data;
+    let d = r.channels.len();
+    let rate = d_sec.rate_hz;
+    let period_channel =
+        match &d_sec.period_channel {
+            Some(name) => Some(r.channels.iter().position(|x| x == name).ok_or_else(|| {
+                c.error("data.period_channel", format!("'{name}' is not one of the learnt channels"))
+            })?),
+            None => None,
+        };
+    let lo = (d_sec.period_s[0] * rate).round() as usize;
+    let hi = (d_sec.period_s[1] * rate).round() as usize;
+    let (mut loops, mut cycles) = (Vec::new(), Vec::new());
+    for (k, m) in r.parts.iter().enumerate() {
+        let label = &r.labels[k];
+        let x = r.z.apply(m)?.values().to_vec();
+        let t = m.n_frames();
+        let (p, ch, _) = gait_period(&x, d, lo, hi, period_channel).ok_or_else(|| {
+            Error::Data(format!(
+                "segment {} ({label}): no rhythm found between {} and {} s in its {t} frames (is the motion periodic?)",
+                k + 1,
+                d_sec.period_s[0],
+                d_sec.period_s[1]
+            ))
+        })?;
+        let lp = best_loop(&x, d, p, d_sec.loop_cycles).ok_or_else(|| {
+            Error::Data(format!(
+                "segment {} ({label}): {} cycle(s) of {p:.1} frames do not fit its {t} frames",
+                k + 1,
+                d_sec.loop_cycles
+            ))
+        })?;
+        if lp.seam_excess > d_sec.max_seam_excess {
+            return Err(Error::Data(format!(
+                "segment {} ({label}): the best loop of {} cycle(s) of {p:.1} frames jumps {:.2} σ beyond a typical step at its seam (data.max_seam_excess = {}); the period may be a harmonic: try data.period_s, data.period_channel or data.loop_cycles",
+                k + 1,
+                d_sec.loop_cycles,
+                lp.seam_excess,
+                d_sec.max_seam_excess
+            )));
+        }
+        if 2.0 * p > (t - t / 4) as f64 && d_sec.loop_cycles == 1 {
+            notes.push(format!(
+                "segment {} ({label}): {t} frames hold {:.1} periods of {p:.1}, too few to rule out that the true stride is twice as long; check the loop in a figure",
+                k + 1,
+                t as f64 / p
+            ));
+        }
+        let cycle = x[lp.start * d..(lp.start + lp.len) * d].to_vec();
+        loops.push(if d_sec.morph_s > 0.0 { rotate_to_max(&cycle, d) } else { cycle });
+        cycles.push(SegmentCycle {
+            label: label.clone(),
+            frames: t,
+            period_frames: p,
+            period_channel: r.channels[ch].clone(),
+            loop_start: lp.start,
+            loop_len: lp.len,
+            seam_excess: lp.seam_excess,
+        });
+    }
+    Ok((loops, cycles))
+}
+
+/// Training, warm-up and the paper's validation continuation of a sequence.
+struct Sequences {
+    train: Sequence,
+    warmup: Sequence,
+    nmse_validation: Sequence,
+}
+
+/// The loop of the single segment played at a smoothly varying rate.
+fn tempo_sequences(c: &Config, tp: &TempoSection, cycle: &[f64], d: usize) -> Result<(Sequences, Vec<Teacher>)> {
+    let v = c.training.validation_samples;
+    let n = tp.samples + v;
+    if n > MAX_TRAINING_SAMPLES {
+        return Err(Error::Data(format!(
+            "data.tempo.samples + training.validation_samples = {n}; at most {MAX_TRAINING_SAMPLES}"
+        )));
+    }
+    let rates = smooth_random(n, tp.knot_every, tp.range[0], tp.range[1], tp.seed);
+    let p = cycle.len() / d;
+    let mut outs = Vec::with_capacity(n * d);
+    let mut pos = 0.0;
+    for r in &rates {
+        for ch in 0..d {
+            outs.push(periodic(cycle, p, d, pos, ch));
+        }
+        pos += r;
+    }
+    let train = Sequence { outputs: outs[..tp.samples * d].to_vec(), controls: rates[..tp.samples].to_vec() };
+    let nmse_validation = Sequence { outputs: outs[tp.samples * d..].to_vec(), controls: rates[tp.samples..].to_vec() };
+    let teachers = tp
+        .teachers
+        .iter()
+        .map(|&r| Teacher { label: format!("{} = {r}", tp.control), controls: vec![r], cycle: cycle.to_vec(), rate: r })
+        .collect();
+    Ok((Sequences { warmup: train.clone(), train, nmse_validation }, teachers))
+}
+
+/// Segment blocks, repeated, with optional phase-continuous morphs between them.
+fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Result<Sequences> {
+    let d_sec = &c.data;
+    let u = d_sec.controls.len();
+    let v = c.training.validation_samples;
+    let n_seg = loops.len();
+    let spb = d_sec.samples_per_segment;
+    let morph = (d_sec.morph_s * d_sec.rate_hz).round() as usize;
+    let blocks = n_seg * d_sec.repeats;
+    let total = blocks * spb + (blocks - 1) * morph;
+    if total > MAX_TRAINING_SAMPLES {
+        return Err(Error::Data(format!(
+            "the training sequence would have {total} samples (segments × repeats × samples_per_segment + morphs); at most {MAX_TRAINING_SAMPLES}"
+        )));
+    }
+    let frames = |i: usize| (loops[i].len() / d) as f64;
+    let mut outs = Vec::with_capacity(total * d);
+    let mut ctls = Vec::with_capacity(total * u);
+    let mut first_block = None;
+    // The segment and phase (in cycles) where the sequence stands.
+    let mut last = (0usize, 0.0f64);
+    for b in 0..blocks {
+        let i = b % n_seg;
+        let seg = &d_sec.segments[i];
+        if morph == 0 {
+            outs.extend(tile(&loops[i], d, spb, 0));
+            last = (i, spb as f64 / frames(i));
+        } else {
+            let mut ph = if b == 0 { 0.0 } else { last.1 };
+            for _ in 0..spb {
+                blend_at(&loops[i], &loops[i], d, ph, 0.0, &mut outs);
+                ph += 1.0 / frames(i);
+            }
+            last = (i, ph);
+        }
+        for _ in 0..spb {
+            ctls.extend_from_slice(&seg.controls);
+        }
+        if b == 0 {
+            first_block = Some(Sequence { outputs: outs.clone(), controls: ctls.clone() });
+        }
+        if b + 1 < blocks && morph > 0 {
+            let j = (b + 1) % n_seg;
+            let mut ph = last.1;
+            for k in 0..morph {
+                let w = cosine(k as f64 / morph as f64);
+                blend_at(&loops[i], &loops[j], d, ph, w, &mut outs);
+                for (a, b) in seg.controls.iter().zip(&d_sec.segments[j].controls) {
+                    ctls.push((1.0 - w) * a + w * b);
+                }
+                ph += 1.0 / ((1.0 - w) * frames(i) + w * frames(j));
+            }
+            last = (j, ph);
+        }
+    }
+    let (li, lph) = last;
+    let nmse_out = if morph == 0 {
+        tile(&loops[li], d, v, spb)
+    } else {
+        let mut o = Vec::with_capacity(v * d);
+        for k in 0..v {
+            blend_at(&loops[li], &loops[li], d, lph + k as f64 / frames(li), 0.0, &mut o);
+        }
+        o
+    };
+    let nmse_validation = Sequence { outputs: nmse_out, controls: d_sec.segments[li].controls.repeat(v) };
+    let train = Sequence { outputs: outs, controls: ctls };
+    let warmup = if orbit { first_block.unwrap_or_else(|| train.clone()) } else { train.clone() };
+    Ok(Sequences { train, warmup, nmse_validation })
+}
+
+/// The segments as recorded, the last `validation_samples` validating.
+fn recorded_sequences(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<Sequences> {
+    let (d, u, v) = (r.channels.len(), c.data.controls.len(), c.training.validation_samples);
+    let mut outs = Vec::new();
+    let mut ctls = Vec::new();
+    for (m, s) in r.parts.iter().zip(&c.data.segments) {
+        outs.extend_from_slice(r.z.apply(m)?.values());
+        for _ in 0..m.n_frames() {
+            ctls.extend_from_slice(&s.controls);
+        }
+    }
+    let t = outs.len() / d;
+    if c.training.score == "orbit" {
+        return Err(Error::Data(
+            "score = \"orbit\" needs looped segments (loop_cycles >= 1) to know each rhythm".into(),
+        ));
+    }
+    if v + c.training.washout + 2 > t {
+        return Err(Error::Data(format!(
+            "{t} samples cannot hold a washout of {} and {v} validation samples",
+            c.training.washout
+        )));
+    }
+    notes.push(format!("segments used as recorded; the last {v} samples validate"));
+    let train = Sequence { outputs: outs[..(t - v) * d].to_vec(), controls: ctls[..(t - v) * u].to_vec() };
+    Ok(Sequences {
+        nmse_validation: Sequence { outputs: outs[(t - v) * d..].to_vec(), controls: ctls[(t - v) * u..].to_vec() },
+        warmup: train.clone(),
+        train,
+    })
+}
+
+/// Reads, normalises and loops the data of a configuration.
+pub fn prepare(c: &Config) -> Result<Prepared> {
+    let r = read(c)?;
+    let d = r.channels.len();
+    let u = c.data.controls.len();
+    let orbit = c.training.score == "orbit";
+    let mut notes = Vec::new();
+    let (seqs, cycles, teachers) = if c.data.loop_cycles == 0 {
+        (recorded_sequences(c, &r, &mut notes)?, Vec::new(), Vec::new())
+    } else {
+        let (loops, cycles) = loops(c, &r, &mut notes)?;
+        let (seqs, teachers) = match &c.data.tempo {
+            Some(tp) => tempo_sequences(c, tp, &loops[0], d)?,
+            None => {
+                let teachers = loops
+                    .iter()
+                    .enumerate()
+                    .map(|(i, cyc)| Teacher {
+                        label: r.labels[i].clone(),
+                        controls: c.data.segments[i].controls.clone(),
+                        cycle: cyc.clone(),
+                        rate: 1.0,
+                    })
+                    .collect();
+                (block_sequences(c, &loops, d, orbit)?, teachers)
+            }
+        };
+        (seqs, cycles, teachers)
+    };
+    let (validation, scoring) = if orbit {
+        let o =
+            c.training.orbit.as_ref().ok_or_else(|| Error::Data("score = \"orbit\" needs [training.orbit]".into()))?;
+        let w = &seqs.warmup.controls;
+        orbit_run(o, &teachers, d, u, c.data.rate_hz, &w[w.len().saturating_sub(u)..])?
+    } else {
+        (seqs.nmse_validation, Scoring::default())
+    };
+    let found: Vec<String> = cycles
+        .iter()
+        .map(|cy| {
+            format!(
+                "segment {}: period {:.1} frames (from {}), loop frames {}..{}, seam excess {:.3}",
+                cy.label,
+                cy.period_frames,
+                cy.period_channel,
+                cy.loop_start,
+                cy.loop_start + cy.loop_len,
+                cy.seam_excess
+            )
+        })
+        .chain(notes.iter().filter(|n| n.starts_with("segments used")).cloned())
+        .collect();
+    let description = format!(
+        "{d} channel(s) [{}] at {} Hz from {}; z-scored; {}",
+        r.channels.join(", "),
+        c.data.rate_hz,
+        r.labels.join(", "),
+        found.join("; ")
+    );
+    let outputs = r
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(k, name)| OutputChannel { name: name.clone(), mean: r.z.mean[k], std: r.z.std[k] })
+        .collect();
+    Ok(Prepared {
+        data: TrainingData { train: seqs.train, warmup: seqs.warmup, validation, scoring },
+        outputs,
+        teachers,
+        cycles,
+        segments: r
+            .parts
+            .iter()
+            .map(|m| r.z.apply(m).map(|m| m.values().to_vec()))
+            .collect::<std::result::Result<_, _>>()?,
+        skeleton_asf: r.skeleton_asf,
+        skeleton: r.skeleton,
+        description,
+        notes,
+    })
+}
+
+/// The orbit validation run: the teachers visited in turn, each held for
+/// `stay_s` after a cosine ramp, each scored from `settle_s` after arrival to
+/// the end of its stay; the push (if any) in the first stay.
+fn orbit_run(
+    o: &OrbitSection,
+    teachers: &[Teacher],
+    d: usize,
+    u: usize,
+    rate: f64,
+    start_controls: &[f64],
+) -> Result<(Sequence, Scoring)> {
+    let seq: Vec<usize> = o.sequence.clone().unwrap_or_else(|| (0..teachers.len()).collect());
+    if seq.is_empty() {
+        return Err(Error::Data("training.orbit.sequence is empty".into()));
+    }
+    if let Some(&k) = seq.iter().find(|&&k| k >= teachers.len()) {
+        return Err(Error::Data(format!(
+            "training.orbit.sequence names teacher {k}; there are {} (0-based)",
+            teachers.len()
+        )));
+    }
+    let steps = |s: f64| (s * rate).round() as usize;
+    let (stay, ramp, settle) = (steps(o.stay_s), steps(o.ramp_s), steps(o.settle_s));
+    let total_est = seq.len() * (stay + ramp);
+    if total_est > MAX_VALIDATION_STEPS {
+        return Err(Error::Data(format!(
+            "the orbit validation run would have {total_est} steps; at most {MAX_VALIDATION_STEPS} (shorten training.orbit.stay_s)"
+        )));
+    }
+    let mut outs = Vec::new();
+    let mut ctls = Vec::new();
+    let mut stays = Vec::new();
+    let mut prev = start_controls.to_vec();
+    for &k in &seq {
+        let t = &teachers[k];
+        let p = t.cycle.len() / d;
+        if prev != t.controls && ramp > 0 {
+            for s in 0..ramp {
+                let w = cosine(s as f64 / ramp as f64);
+                ctls.extend(prev.iter().zip(&t.controls).map(|(a, b)| (1.0 - w) * a + w * b));
+                for c in 0..d {
+                    outs.push(periodic(&t.cycle, p, d, s as f64 * t.rate, c));
+                }
+            }
+        }
+        let arrive = outs.len() / d;
+        for s in 0..stay {
+            ctls.extend_from_slice(&t.controls);
+            for c in 0..d {
+                outs.push(periodic(&t.cycle, p, d, s as f64 * t.rate, c));
+            }
+        }
+        let end = arrive + stay;
+        stays.push(OrbitStay { end, window: stay - settle, cycle: t.cycle.clone(), rate: t.rate });
+        prev = t.controls.clone();
+    }
+    debug_assert_eq!(ctls.len(), outs.len() / d * u);
+    let holds = match &o.push {
+        Some(push) => {
+            let t = &teachers[seq[0]];
+            let values: Vec<f64> = (0..d)
+                .map(|c| t.cycle.iter().skip(c).step_by(d).copied().fold(f64::NEG_INFINITY, f64::max) + push.above_max)
+                .collect();
+            let first_arrive = stays[0].end - stay;
+            vec![Hold { from: first_arrive + steps(push.at_s), len: steps(push.hold_s).max(1), values }]
+        }
+        None => Vec::new(),
+    };
+    Ok((Sequence { outputs: outs, controls: ctls }, Scoring { score: Score::Orbit(stays), holds }))
+}

@@ -1,0 +1,157 @@
+//! Training a CPG from a configuration: what `cpg train` and every
+//! experiment run, so that both compute the same model.
+
+use cpg_regression::PenaltyGrid;
+use cpg_reservoir::{Activation, Coupling, Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg};
+
+use crate::config::{Config, CouplingSection};
+use crate::error::{Error, Result};
+use crate::prepare::{Prepared, prepare};
+
+/// The memory a training run may use, MiB (estimated before anything is allocated).
+pub const MEMORY_BUDGET_MIB: u64 = 4096;
+/// Most penalties in a grid.
+pub const MAX_PENALTIES: usize = 1000;
+/// Most noise draws per candidate.
+pub const MAX_NOISE_DRAWS: usize = 100;
+
+fn coupling(c: &CouplingSection) -> Coupling {
+    Coupling { fraction: c.fraction, scale: c.scale, center: c.center }
+}
+
+/// The reservoir of a configuration: the preset with the overrides applied.
+pub fn reservoir_config(c: &Config, n_outputs: usize) -> Result<ReservoirConfig> {
+    let r = &c.reservoir;
+    let bad = |field: &str, message: String| c.error(field, message);
+    let mut rc = match r.preset.as_str() {
+        "wyffels-schrauwen-2009" => ReservoirConfig::wyffels_schrauwen_2009(),
+        other => return Err(bad("reservoir.preset", format!("'{other}'; valid: wyffels-schrauwen-2009"))),
+    };
+    rc.n_outputs = n_outputs;
+    rc.n_neurons = r.n_neurons.unwrap_or(rc.n_neurons);
+    rc.connectivity = r.connectivity.unwrap_or(rc.connectivity);
+    rc.spectral_radius = r.spectral_radius.unwrap_or(rc.spectral_radius);
+    rc.leak_rate = r.leak_rate.unwrap_or(rc.leak_rate);
+    rc.bias_range = r.bias_range.unwrap_or(rc.bias_range);
+    if let Some(f) = &r.feedback {
+        rc.feedback = coupling(f);
+    }
+    let n_controls = c.data.controls.len();
+    rc.inputs = match &r.inputs {
+        Some(v) => v.iter().map(coupling).collect(),
+        None => vec![Coupling::new(0.5, 0.2); n_controls],
+    };
+    if rc.inputs.len() != n_controls {
+        return Err(bad(
+            "reservoir.inputs",
+            format!("has {} couplings for {n_controls} control inputs", rc.inputs.len()),
+        ));
+    }
+    if let Some(a) = &r.activation {
+        rc.activation = match a.as_str() {
+            "tanh" => Activation::Tanh,
+            "logistic" => Activation::Logistic,
+            other => return Err(bad("reservoir.activation", format!("'{other}'; valid: tanh, logistic"))),
+        };
+    }
+    if let Some(p) = &r.precision {
+        rc.precision = match p.as_str() {
+            "f32" => Precision::F32,
+            "f64" => Precision::F64,
+            other => return Err(bad("reservoir.precision", format!("'{other}'; valid: f32, f64"))),
+        };
+    }
+    rc.tempo_input = r.tempo_input.as_ref().and_then(|n| c.data.controls.iter().position(|x| x == n));
+    Ok(rc)
+}
+
+/// The training settings of a configuration.
+pub fn train_settings(c: &Config) -> Result<TrainSettings> {
+    let t = &c.training;
+    let p = t.penalty_log10;
+    let n = ((p.start - p.stop).abs() / p.step).floor() + 1.0;
+    if !(n.is_finite() && n <= MAX_PENALTIES as f64) {
+        return Err(c.error(
+            "training.penalty_log10",
+            format!("gives {n} penalties; at most {MAX_PENALTIES} (use a larger step)"),
+        ));
+    }
+    if t.noise_draws > MAX_NOISE_DRAWS {
+        return Err(c.error("training.noise_draws", format!("{}; at most {MAX_NOISE_DRAWS}", t.noise_draws)));
+    }
+    Ok(TrainSettings {
+        washout: t.washout,
+        penalties: PenaltyGrid::log10_range(p.start, p.step, p.stop)?,
+        noise_variance: t.noise_variance,
+        n_noise_draws: t.noise_draws,
+        noise_seed: t.noise_seed,
+        teacher_noise: t.teacher_noise,
+        prefer_larger_within: t.prefer_larger_within,
+    })
+}
+
+/// Estimated peak memory of training, MiB: the harvested states, the Gram
+/// matrix and its eigendecomposition, the batched validation states and noise.
+pub fn memory_estimate_mib(rc: &ReservoirConfig, s: &TrainSettings, p: &Prepared) -> u64 {
+    let n = rc.n_neurons as f64;
+    let d = rc.n_outputs as f64;
+    let rows = p.data.train.len(rc.n_outputs) as f64;
+    let steps = p.data.validation.len(rc.n_outputs) as f64;
+    let word = match rc.precision {
+        Precision::F32 => 4.0,
+        Precision::F64 => 8.0,
+    };
+    let cols = s.penalties.len() as f64 * s.n_noise_draws as f64;
+    let harvest = rows * (n + d) * 8.0;
+    let gram = 4.0 * n * n * 8.0 + s.penalties.len() as f64 * n * d * 8.0;
+    let validation = 3.0 * cols * n * word + s.n_noise_draws as f64 * steps * n * word + cols * steps * d * 8.0;
+    ((harvest + gram + validation) / (1024.0 * 1024.0)).ceil() as u64
+}
+
+/// Trains a model on prepared data with the reservoir seed `seed`.
+pub fn train_prepared(c: &Config, p: &Prepared, seed: u64) -> Result<TrainedCpg> {
+    let rc = reservoir_config(c, p.outputs.len())?.check().map_err(cpg_reservoir::Error::from)?;
+    let settings = train_settings(c)?;
+    let mib = memory_estimate_mib(&rc, &settings, p);
+    if mib > MEMORY_BUDGET_MIB {
+        return Err(Error::Budget {
+            what: format!(
+                "training {} neurons on {} samples with {} penalties × {} noise draws",
+                rc.n_neurons,
+                p.data.train.len(rc.n_outputs),
+                settings.penalties.len(),
+                settings.n_noise_draws
+            ),
+            needed_mib: mib,
+            limit_mib: MEMORY_BUDGET_MIB,
+            hint: "fewer neurons, samples, penalties or noise draws",
+        });
+    }
+    let reservoir = Reservoir::new(&rc, seed)?;
+    let training = cpg_reservoir::train(&reservoir, &p.data, &settings)?;
+    let model = TrainedCpg::new(
+        reservoir,
+        training,
+        settings,
+        p.data.scoring.clone(),
+        p.outputs.clone(),
+        c.data.controls.clone(),
+        p.description.clone(),
+        c.data.rate_hz,
+    )?;
+    Ok(model.with_teachers(p.teachers.clone())?.with_skeleton(p.skeleton_asf.clone()))
+}
+
+/// Prepares the data of `c` and trains with its own seed.
+pub fn train(c: &Config) -> Result<(TrainedCpg, Prepared)> {
+    let p = prepare(c)?;
+    let m = train_prepared(c, &p, c.reservoir.seed)?;
+    Ok((m, p))
+}
+
+/// Whether the chosen penalty is the first or last of the grid (the search may want a wider grid).
+pub fn penalty_at_edge(m: &TrainedCpg) -> bool {
+    let v = m.provenance.settings.penalties.values();
+    let p = m.provenance.chosen_penalty;
+    v.len() > 1 && (v.first() == Some(&p) || v.last() == Some(&p))
+}

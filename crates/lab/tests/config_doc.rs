@@ -1,0 +1,106 @@
+//! `docs/config.md` lists every key the parser accepts, and the errors speak
+//! the file's language.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)] // tests fail loudly
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use cpg_lab::Config;
+use cpg_lab::experiment::families::FamiliesConfig;
+use serde_reflection::{ContainerFormat, Format, Samples, Tracer, TracerConfig};
+
+fn doc() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/config.md")).unwrap()
+}
+
+/// Every dotted key path reachable from `root` in the traced registry.
+fn paths(registry: &BTreeMap<String, ContainerFormat>, root: &str) -> Vec<String> {
+    fn walk(reg: &BTreeMap<String, ContainerFormat>, f: &Format, prefix: &str, out: &mut Vec<String>) {
+        match f {
+            Format::TypeName(name) => {
+                if let Some(ContainerFormat::Struct(fields)) = reg.get(name) {
+                    for field in fields {
+                        let p = if prefix.is_empty() { field.name.clone() } else { format!("{prefix}.{}", field.name) };
+                        out.push(p.clone());
+                        walk(reg, &field.value, &p, out);
+                    }
+                }
+            }
+            Format::Option(inner) | Format::Seq(inner) => walk(reg, inner, prefix, out),
+            Format::TupleArray { content, .. } => walk(reg, content, prefix, out),
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk(registry, &Format::TypeName(root.into()), "", &mut out);
+    out.sort();
+    out.dedup();
+    out
+}
+
+fn trace<T: serde::de::DeserializeOwned>(root: &str) -> Vec<String> {
+    let mut tracer = Tracer::new(TracerConfig::default());
+    tracer.trace_type::<T>(&Samples::new()).unwrap();
+    let registry = tracer.registry().unwrap();
+    paths(&registry, root)
+}
+
+#[test]
+fn every_key_the_parser_accepts_is_documented() {
+    let doc = doc();
+    let mut missing = Vec::new();
+    let keys: Vec<String> =
+        trace::<Config>("Config").into_iter().chain(trace::<FamiliesConfig>("FamiliesConfig")).collect();
+    assert!(keys.len() > 80, "traced only {} keys", keys.len());
+    for k in &keys {
+        // A key is documented in backticks, as a key (`training.score`) or as a table (`[data]`).
+        if !doc.contains(&format!("`{k}`")) && !doc.contains(&format!("`[{k}]`")) {
+            missing.push(k.clone());
+        }
+    }
+    assert!(missing.is_empty(), "keys the parser accepts but docs/config.md does not list: {missing:?}");
+}
+
+#[test]
+fn every_experiment_configuration_parses() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+    let mut n = 0;
+    for sub in [dir.clone(), dir.join("tried")] {
+        for e in std::fs::read_dir(&sub).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "toml") && p.file_name().is_some_and(|f| f != "families.toml") {
+                let c = Config::load(&p).unwrap_or_else(|e| panic!("{e}"));
+                assert!(c.experiment.is_some(), "{} has no [experiment]", p.display());
+                n += 1;
+            }
+        }
+    }
+    assert!(n >= 8, "{n} configurations");
+    FamiliesConfig::load(&dir.join("families.toml")).unwrap();
+}
+
+#[test]
+fn errors_name_the_key_its_line_and_what_it_takes() {
+    let file = Path::new("x.toml");
+    let base = "[data]\nskeleton = \"s.asf\"\nchannels = [\"lfemur.rx\"]\n\n[[data.segments]]\nmotion = \"m.amc\"\n\n[output]\nmodel = \"m.cpg\"\n";
+    let err = |text: &str| Config::from_toml(text, file, Path::new(".")).unwrap_err().to_string();
+    assert!(Config::from_toml(base, file, Path::new(".")).is_ok());
+    let e = err(&format!("{base}\n[training]\npenalty_log10 = [1, -8]\n"));
+    assert!(
+        e.contains("x.toml:12") && e.contains("`training.penalty_log10`") && e.contains("{start, step, stop}"),
+        "{e}"
+    );
+    let e = err(&base.replace("[output]", "[output]\nmodle = 1"));
+    assert!(e.contains("unknown field `modle`"), "{e}");
+    let e = err(&format!("{base}\n[training]\nscore = \"fast\"\n"));
+    assert!(e.contains("`training.score`") && e.contains("nmse") && e.contains("orbit"), "{e}");
+    let e = err(&format!("\u{feff}{base}\n[reservoir]\ntempo_input = \"u\"\n"));
+    assert!(e.contains("`reservoir.tempo_input`") && e.contains("not a control input"), "{e}");
+    let e = err(&base.replace("skeleton = \"s.asf\"", "skeleton = \"s.asf\"\nrate_hz = 0.001"));
+    assert!(e.contains("`data.rate_hz`") && e.contains("1 to"), "{e}");
+    let e = err(&format!("{base}\n[training]\nscore = \"orbit\"\n"));
+    assert!(e.contains("[training.orbit]"), "{e}");
+    let e = err(&base.replace("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"a,b\"]"));
+    assert!(e.contains("`data.controls[0]`") && e.contains("commas"), "{e}");
+}

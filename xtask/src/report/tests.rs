@@ -1,0 +1,213 @@
+//! Rendering, pinned: a golden section and summary, every verdict beside its
+//! rule, and a decayed run reported without a period. The results here are
+//! built by hand, so these tests need no data and no training.
+//! `UPDATE_SNAPSHOTS=1 cargo test -p xtask` rewrites the golden files.
+
+use cpg_lab::experiment::frequency::{FrequencyResult, FrequencySeed, Plateau};
+use cpg_lab::experiment::gaits::{GaitWindow, GaitsResult, GaitsSeed};
+use cpg_lab::experiment::stability::{PushInfo, StabilityResult, StabilitySeed};
+use cpg_lab::experiment::{Header, Outcome, SeedModel};
+use cpg_lab::measure::{Recovery, Rhythm, Stability, TeacherShape};
+use cpg_lab::prepare::SegmentCycle;
+use cpg_reservoir::Teacher;
+
+use super::fmt::Md;
+use super::summary::{Headings, summary};
+
+fn header(id: &str, protocol: &str, score: &str) -> Header {
+    Header {
+        id: id.into(),
+        title: "a test".into(),
+        protocol: protocol.into(),
+        method: format!("the {protocol} method"),
+        config: format!("experiments/{}.toml", if protocol == "ours" { "e1" } else { "e1-paper" }),
+        cycles: vec![SegmentCycle {
+            label: "walk (35_01)".into(),
+            frames: 358,
+            period_frames: 134.94,
+            period_channel: "lfemur.rx".into(),
+            loop_start: 141,
+            loop_len: 140,
+            seam_excess: 0.0,
+        }],
+        notes: vec![],
+        score: score.into(),
+        noise_variance: if score == "nmse" { 1e-3 } else { 0.0 },
+        penalty_grid: (91, 1.0, -8.0),
+        n_neurons: 300,
+    }
+}
+
+fn rhythm(period: Option<f64>, amp: f64) -> Rhythm {
+    Rhythm { period_steps: period, amplitude: vec![amp], aligned_nmse: 0.01, decayed: period.is_none() }
+}
+
+fn stability_seed(seed: u64, period: Option<f64>, amp: f64, penalty: f64) -> StabilitySeed {
+    let accurate = period.is_some_and(|p| (p / 140.0 - 1.0).abs() < 0.01) && (amp / 1.54 - 1.0).abs() < 0.05;
+    StabilitySeed {
+        model: SeedModel { seed, penalty, validation_score: 0.5, penalty_at_edge: penalty == 10.0 },
+        first_nmse: 0.02,
+        stability: Stability {
+            steps: 108_000,
+            teacher: TeacherShape { label: "walk (35_01)".into(), period_steps: 140.0, amplitude: vec![1.54] },
+            early: rhythm(Some(140.0), 1.5),
+            end: rhythm(period, amp),
+            decayed_at_s: period.is_none().then_some(412.5),
+            converged: period.is_some(),
+            accurate,
+        },
+        recovery: Recovery { orbit_s: period.map(|_| 0.5), twin_s: None, phase_shift_cycles: 0.031 },
+    }
+}
+
+fn stability(protocol: &str) -> StabilityResult {
+    let score = if protocol == "ours" { "orbit" } else { "nmse" };
+    let seeds = if protocol == "ours" {
+        vec![stability_seed(1, Some(140.02), 1.53, 3.16e-2), stability_seed(2, Some(139.98), 1.54, 6.31e-3)]
+    } else {
+        vec![stability_seed(1, Some(139.14), 1.39, 10.0), stability_seed(2, None, 0.0, 10.0)]
+    };
+    StabilityResult {
+        header: header("E1–E3", protocol, score),
+        channel: "lfemur.rx".into(),
+        long_run_s: 900.0,
+        first_samples: 500,
+        push: PushInfo {
+            at_s: 2.0,
+            hold_s: 0.05,
+            hold_steps: 6,
+            above_max: 2.0,
+            held: vec![3.8],
+            held_units: vec![48.3],
+        },
+        teacher: Teacher { label: "walk (35_01)".into(), controls: vec![], cycle: vec![0.0; 140], rate: 1.0 },
+        seeds,
+        curve: (0..91).map(|k| (10f64.powf(1.0 - k as f64 / 10.0), 1.0 + k as f64 / 100.0)).collect(),
+        fig2: Default::default(),
+    }
+}
+
+fn frequency() -> FrequencyResult {
+    let plateau = |u: f64, ok: bool| Plateau {
+        u,
+        window_s: [4.0, 8.0],
+        target_hz: u * 0.857,
+        measured_hz: ok.then_some(u * 0.857),
+        amplitude_ratio: if ok { 1.0 } else { 0.0 },
+        aligned_nmse: 0.01,
+        passed: ok,
+    };
+    FrequencyResult {
+        header: header("E4", "ours", "orbit"),
+        f0_hz: 0.857,
+        teacher_amplitude: 1.54,
+        plateaus: vec![1.0, 6.0],
+        hold_s: 8.0,
+        ramp_s: 2.0,
+        seeds: vec![FrequencySeed {
+            model: SeedModel { seed: 1, penalty: 1e-3, validation_score: 0.01, penalty_at_edge: false },
+            plateaus: vec![plateau(1.0, true), plateau(6.0, false)],
+            passed: false,
+            figure: vec![plateau(6.0, true)],
+        }],
+        fig3: Default::default(),
+    }
+}
+
+fn gaits() -> GaitsResult {
+    let w = |t: &str, p: f64| GaitWindow {
+        teacher: t.into(),
+        period_steps: Some(p),
+        teacher_period_steps: p,
+        amplitude_ratio: 1.0,
+        passed: true,
+    };
+    GaitsResult {
+        header: header("E5", "ours", "orbit"),
+        teachers: vec![
+            TeacherShape { label: "walk".into(), period_steps: 140.0, amplitude: vec![1.36] },
+            TeacherShape { label: "run".into(), period_steps: 86.0, amplitude: vec![1.58] },
+        ],
+        data_step: 0.197,
+        switch_at_s: [8.0, 15.0],
+        ramp_s: 1.0,
+        run_s: 25.0,
+        seeds: vec![GaitsSeed {
+            model: SeedModel { seed: 1, penalty: 5e-3, validation_score: 0.01, penalty_at_edge: false },
+            first: w("walk", 140.0),
+            second: w("run", 86.0),
+            first_again: w("walk", 140.0),
+            settle_s: [Some(0.35), Some(0.5)],
+            max_jump_smooth: 0.17,
+            max_jump_abrupt: 0.5,
+            passed: true,
+        }],
+        fig4: Default::default(),
+    }
+}
+
+fn golden(name: &str, text: &str) {
+    let path = crate::root().join("xtask/tests/golden").join(name);
+    if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
+        std::fs::write(&path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        return;
+    }
+    let pinned = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(pinned == text, "{name} changed (UPDATE_SNAPSHOTS=1 to accept):\n--- pinned\n{pinned}\n--- now\n{text}");
+}
+
+#[test]
+fn the_e1_section_is_pinned() {
+    let (paper, ours) = (stability("paper"), stability("ours"));
+    let mut md = Md::default();
+    super::reservoir::stability(&mut md, &[&paper, &ours], None).unwrap();
+    golden("e1_section.md", &md.0);
+}
+
+#[test]
+fn the_summary_table_is_pinned() {
+    let outcomes = vec![
+        ("experiments/e1-paper.toml".to_owned(), Outcome::Stability(Box::new(stability("paper")))),
+        ("experiments/e1.toml".to_owned(), Outcome::Stability(Box::new(stability("ours")))),
+        ("experiments/e4.toml".to_owned(), Outcome::Frequency(Box::new(frequency()))),
+        ("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(gaits()))),
+    ];
+    let headings = Headings {
+        stability: "E1–E3: a test (Fig. 2)".into(),
+        frequency: "E4: a test (Fig. 3)".into(),
+        gaits: "E5: a test (Fig. 4)".into(),
+        coupling: String::new(),
+        families: String::new(),
+    };
+    let mut md = Md::default();
+    summary(&mut md, &outcomes, None, &headings);
+    golden("summary.md", &md.0);
+}
+
+#[test]
+fn every_verdict_is_printed_with_its_rule() {
+    let (paper, ours) = (stability("paper"), stability("ours"));
+    let mut md = Md::default();
+    super::reservoir::stability(&mut md, &[&paper, &ours], None).unwrap();
+    for v in [ours.e1_verdict(), ours.e2_verdict(), ours.e3_verdict()] {
+        assert!(md.0.contains(v.rule), "the E1–E3 section lacks the rule {:?}", v.rule);
+    }
+    let f = frequency();
+    let mut md = Md::default();
+    super::reservoir::frequency(&mut md, &[&f], None).unwrap();
+    assert!(md.0.contains(f.verdict().rule), "E4 rule missing");
+    let g = gaits();
+    let mut md = Md::default();
+    super::reservoir::gaits(&mut md, &[&g], None).unwrap();
+    assert!(md.0.contains(g.verdict().rule), "E5 rule missing");
+}
+
+#[test]
+fn a_decayed_run_has_no_period() {
+    let paper = stability("paper");
+    let mut md = Md::default();
+    super::reservoir::stability(&mut md, &[&paper], None).unwrap();
+    let row = md.0.lines().find(|l| l.starts_with("| 2 |")).expect("seed 2's row");
+    assert!(row.contains("decayed at 412 s"), "{row}");
+    assert!(!row.contains("| 0.00 |") && !row.contains("127."), "no period for a decayed run: {row}");
+}
