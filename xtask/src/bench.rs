@@ -89,7 +89,7 @@ fn model(res: Reservoir, f: &Prepared, settings: &TrainSettings) -> anyhow::Resu
     )?)
 }
 
-pub fn run() -> anyhow::Result<()> {
+pub fn run(vs_reservoirpy: bool) -> anyhow::Result<()> {
     let e1 = cpg_lab::Config::load(&crate::root().join("experiments/e1-paper.toml"))?;
     let f = prepare(&e1)?;
     let cycle =
@@ -249,5 +249,212 @@ pub fn run() -> anyhow::Result<()> {
         println!("| {p:?} | {pen:e} | {nmse:.4} | {diff:.2e} | {period:.2} | {hr:.3} |");
     }
     println!("\nteacher cycle: {} frames, half range {:.3} (z)", cycle.len(), cpg_mocap::cycle::half_range(&cycle));
+    tune_throughput()?;
+    if vs_reservoirpy {
+        side_by_side(&e1, &f)?;
+    }
     Ok(())
+}
+
+/// `cpg tune`'s throughput: configurations (each trained and judged on one
+/// seed) per minute, on every core, from `examples/poor-femur.toml`.
+fn tune_throughput() -> anyhow::Result<()> {
+    let base = cpg_lab::Config::load(&crate::root().join("examples/poor-femur.toml"))?;
+    let s = cpg_lab::tune::TuneSettings { budget: 7, seeds: 1, long_run_s: 60.0, ..Default::default() };
+    let t = Instant::now();
+    let r = cpg_lab::tune::tune(&base, &s, &cpg_lab::experiment::Quiet)?;
+    let minutes = t.elapsed().as_secs_f64() / 60.0;
+    println!(
+        "\ncpg tune (examples/poor-femur.toml, {} configurations × {} seed, {} s judged runs + a push, {} threads): {:.1} s, {:.1} configurations per minute; best passed on {} of {} seeds",
+        r.candidates.len(),
+        s.seeds,
+        s.long_run_s,
+        rayon::current_num_threads(),
+        minutes * 60.0,
+        r.candidates.len() as f64 / minutes,
+        r.best().map_or(0, |b| b.passed),
+        s.seeds
+    );
+    Ok(())
+}
+
+/// One E1 pipeline of ours, phase by phase, on the same data as ReservoirPy's.
+struct Pipeline {
+    init_s: f64,
+    harvest_s: f64,
+    sweep_s: f64,
+    free_run_s: f64,
+    total_s: f64,
+    penalty: f64,
+    first500_nmse: f64,
+    tail: Vec<f64>,
+}
+
+const FREE_RUN_STEPS: usize = 100_000;
+
+fn ours(e1: &cpg_lab::Config, f: &Prepared, precision: Precision) -> anyhow::Result<Pipeline> {
+    let mut rc = cpg_lab::train::reservoir_config(e1, 1)?;
+    rc.precision = precision;
+    let settings = cpg_lab::train::train_settings(e1)?;
+    let all = Instant::now();
+    let t = Instant::now();
+    let res = Reservoir::new(&rc.check()?, e1.reservoir.seed)?;
+    let init_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    black_box(harvest(&res, &f.data.train, settings.washout)?);
+    let harvest_s = t.elapsed().as_secs_f64();
+    // `train` harvests again, then solves and validates every penalty.
+    let t = Instant::now();
+    let tr = train(&res, &f.data, &settings)?;
+    let sweep_s = (t.elapsed().as_secs_f64() - harvest_s).max(0.0);
+    let penalty = tr.penalty;
+    let m = TrainedCpg::new(
+        res,
+        tr,
+        settings,
+        f.data.scoring.clone(),
+        f.outputs.clone(),
+        vec![],
+        f.description.clone(),
+        e1.data.rate_hz,
+    )?;
+    let mut g = Generator::new(&m);
+    let mut norm = vec![0.0; FREE_RUN_STEPS];
+    let t = Instant::now();
+    for v in norm.iter_mut() {
+        g.step(&[])?;
+        *v = g.normalised_output()[0];
+    }
+    let free_run_s = t.elapsed().as_secs_f64();
+    let total_s = all.elapsed().as_secs_f64();
+    let target = &f.data.validation.outputs;
+    Ok(Pipeline {
+        init_s,
+        harvest_s,
+        sweep_s,
+        free_run_s,
+        total_s,
+        penalty,
+        first500_nmse: nmse(&norm[..target.len()], target),
+        tail: norm[FREE_RUN_STEPS - 1200..].to_vec(),
+    })
+}
+
+fn nmse(y: &[f64], t: &[f64]) -> f64 {
+    let m = t.iter().sum::<f64>() / t.len() as f64;
+    let var = t.iter().map(|v| (v - m).powi(2)).sum::<f64>() / t.len() as f64;
+    y.iter().zip(t).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / t.len() as f64 / var
+}
+
+/// E1 with ReservoirPy 0.4.2 and with cpg, in one run, on the same data:
+/// `scripts/reservoirpy_e1.sh` gets the prepared sequences as JSON. The two
+/// OpenBLAS variables this machine sets (which select an older, slower
+/// kernel) are removed for that one command, so the rival runs at its best.
+fn side_by_side(e1: &cpg_lab::Config, f: &Prepared) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let settings = cpg_lab::train::train_settings(e1)?;
+    let rc = cpg_lab::train::reservoir_config(e1, 1)?;
+    let input = serde_json::json!({
+        "n_neurons": rc.n_neurons,
+        "leak_rate": rc.leak_rate,
+        "spectral_radius": rc.spectral_radius,
+        "connectivity": rc.connectivity,
+        "feedback_scale": rc.feedback.scale,
+        "seed": e1.reservoir.seed,
+        "train": f.data.train.outputs,
+        "warmup": f.data.warmup.outputs,
+        "validation": f.data.validation.outputs,
+        "washout": settings.washout,
+        "penalties": settings.penalties.values(),
+        "noise_variance": settings.noise_variance,
+        "noise_draws": settings.n_noise_draws,
+        "free_run_steps": FREE_RUN_STEPS,
+    });
+    let dir = tempfile_dir()?;
+    let path = dir.join("e1.json");
+    std::fs::write(&path, serde_json::to_vec(&input)?)?;
+    println!(
+        "\nE1 side by side with ReservoirPy 0.4.2 (same data and settings, one run; OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset for ReservoirPy, BLAS 1 thread) …"
+    );
+    let out = std::process::Command::new("bash")
+        .arg(crate::root().join("scripts/reservoirpy_e1.sh"))
+        .arg(&path)
+        .env_remove("OPENBLAS_CORETYPE")
+        .env_remove("OPENBLAS_L2_SIZE")
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .context("running scripts/reservoirpy_e1.sh")?;
+    let _ = std::fs::remove_dir_all(&dir);
+    anyhow::ensure!(out.status.success(), "scripts/reservoirpy_e1.sh failed ({})", out.status);
+    let rp: serde_json::Value =
+        serde_json::from_slice(&out.stdout).context("reading the JSON scripts/reservoirpy_e1.sh printed")?;
+    let num = |k: &str| rp[k].as_f64().ok_or_else(|| anyhow::anyhow!("ReservoirPy's result has no number `{k}`"));
+    let (f32p, f64p) = (ours(e1, f, Precision::F32)?, ours(e1, f, Precision::F64)?);
+    println!(
+        "| phase | ReservoirPy {} (numpy {}) | cpg f64 | cpg f32 | ReservoirPy ÷ cpg f32 |",
+        rp["versions"]["reservoirpy"].as_str().unwrap_or("?"),
+        rp["versions"]["numpy"].as_str().unwrap_or("?")
+    );
+    println!("|---|---:|---:|---:|---:|");
+    let rows: [(&str, f64, f64, f64); 5] = [
+        ("build the reservoir", num("init_s")?, f64p.init_s, f32p.init_s),
+        ("harvest (teacher forcing)", num("harvest_s")?, f64p.harvest_s, f32p.harvest_s),
+        (
+            "91 penalties: ridge solves + noisy 500-step validations",
+            num("sweep_s")? + num("retrain_s")?,
+            f64p.sweep_s,
+            f32p.sweep_s,
+        ),
+        ("free run, 100,000 steps", num("free_run_s")?, f64p.free_run_s, f32p.free_run_s),
+        ("the whole pipeline", num("total_s")?, f64p.total_s, f32p.total_s),
+    ];
+    for (what, r, a, b) in rows {
+        println!("| {what} | {} | {} | {} | {:.0}× |", secs(r), secs(a), secs(b), r / b.max(1e-12));
+    }
+    let step = |s: f64| format!("{:.2} µs", s / FREE_RUN_STEPS as f64 * 1e6);
+    println!(
+        "| per free-run step | {} (numpy by hand: {:.2} µs) | {} | {} | {:.0}× |",
+        step(num("free_run_s")?),
+        num("numpy_step_s")? * 1e6,
+        step(f64p.free_run_s),
+        step(f32p.free_run_s),
+        num("free_run_s")? / f32p.free_run_s.max(1e-12)
+    );
+    let tail: Vec<f64> =
+        rp["free_run"].as_array().map(|a| a.iter().filter_map(|v| v.as_f64()).collect()).unwrap_or_default();
+    println!("\n| result | ReservoirPy | cpg f64 | cpg f32 |");
+    println!("|---|---:|---:|---:|");
+    println!("| chosen penalty | {:e} | {:e} | {:e} |", num("chosen_penalty")?, f64p.penalty, f32p.penalty);
+    println!(
+        "| NMSE of the first 500 free-run steps | {:.4} | {:.4} | {:.4} |",
+        num("first500_nmse")?,
+        f64p.first500_nmse,
+        f32p.first500_nmse
+    );
+    let period = |y: &[f64]| estimate_period(y, 60, 250).map_or("none".to_owned(), |p| format!("{p:.2}"));
+    let hr = |y: &[f64]| if y.is_empty() { f64::NAN } else { cpg_mocap::cycle::half_range(y) };
+    println!(
+        "| period over the last 1200 steps (frames) | {} | {} | {} |",
+        period(&tail),
+        period(&f64p.tail),
+        period(&f32p.tail)
+    );
+    println!(
+        "| half range over the last 1200 steps (z) | {:.3} | {:.3} | {:.3} |",
+        hr(&tail),
+        hr(&f64p.tail),
+        hr(&f32p.tail)
+    );
+    println!("(the reservoirs differ: each tool draws its own weights from the same recipe)");
+    Ok(())
+}
+
+fn secs(s: f64) -> String {
+    fmt(Duration::from_secs_f64(s.max(0.0)))
+}
+
+fn tempfile_dir() -> anyhow::Result<std::path::PathBuf> {
+    let d = std::env::temp_dir().join(format!("cpg-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&d)?;
+    Ok(d)
 }

@@ -50,8 +50,15 @@ enum Command {
     /// HOAP-2 joint trajectories.
     Evaluate(report::Args),
     /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
-    /// training, each beside a measured floor, and f32 against f64 accuracy.
-    Bench,
+    /// training, each beside a measured floor, f32 against f64 accuracy, and
+    /// `cpg tune`'s throughput (configurations per minute).
+    Bench {
+        /// Also run E1 with ReservoirPy 0.4.2 (scripts/reservoirpy_e1.sh, its
+        /// own venv, PyPI on first use) and with cpg on the same data, side by
+        /// side in this run.
+        #[arg(long)]
+        vs_reservoirpy: bool,
+    },
     /// Run the coverage-guided fuzz targets of the parsers for a bounded time.
     ///
     /// Needs cargo-fuzz (installed from crates.io when missing) and uses the
@@ -70,7 +77,7 @@ fn main() -> std::process::ExitCode {
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
         Command::Fuzz { seconds } => fuzz::run(seconds),
-        Command::Bench => bench::run(),
+        Command::Bench { vs_reservoirpy } => bench::run(vs_reservoirpy),
         Command::Train(args) => train::run(&args),
         Command::Evaluate(args) => report::run(&args),
     };

@@ -118,6 +118,44 @@ enum Command {
         #[arg(long, short)]
         output: PathBuf,
     },
+    /// Search for settings that keep the rhythm, starting from a configuration.
+    ///
+    /// A seeded random search: --budget candidates draw the settings the paper
+    /// calls "not critical" (spectral radius, leak rate, feedback and input
+    /// scaling), the noise on the fed-back teacher while harvesting, and how
+    /// the penalty is validated (the paper's noisy NMSE or our orbit score,
+    /// with or without the preference for larger penalties). Each candidate,
+    /// and the starting configuration, is trained on --seeds reservoir seeds
+    /// and judged by free runs of --seconds at every control setting it is
+    /// taught, with mild state noise: passed when the period stays within 1 %,
+    /// every amplitude within 5 %, the rhythm has converged and it is back on
+    /// the orbit after the paper's push. Candidates run in parallel on all
+    /// cores; the result does not depend on their number. Prints the best
+    /// candidates with their spread across seeds and writes the best as a
+    /// configuration `cpg train` reads.
+    Tune {
+        /// The starting configuration (its data, channels and controls are kept).
+        #[arg(long, short)]
+        config: PathBuf,
+        /// Candidates drawn.
+        #[arg(long, default_value_t = 24)]
+        budget: usize,
+        /// Reservoir seeds per candidate.
+        #[arg(long, default_value_t = 3)]
+        seeds: u64,
+        /// Seconds of each judged free run.
+        #[arg(long, default_value_t = 300.0)]
+        seconds: f64,
+        /// Seed of the search.
+        #[arg(long, default_value_t = 1)]
+        search_seed: u64,
+        /// Where the best configuration is written [default: NAME-tuned.toml beside the configuration].
+        #[arg(long, short)]
+        output: Option<PathBuf>,
+        /// Print every candidate as JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Judge a trained CPG: a long free run and a push, against its teachers.
     ///
     /// For each control setting the model was taught (or the one given by
@@ -179,6 +217,11 @@ fn main() -> ExitCode {
             map: &map,
             output: &output,
         }),
+        Command::Tune { config, budget, seeds, seconds, search_seed, output, json } => {
+            let s =
+                cpg_lab::tune::TuneSettings { budget, seeds, long_run_s: seconds, search_seed, ..Default::default() };
+            commands::tune(&config, &s, output.as_deref(), json)
+        }
         Command::Evaluate { run, seconds, json } => {
             commands::evaluate(&run.model, seconds, run.control.as_deref(), run.control_file.as_deref(), json)
         }

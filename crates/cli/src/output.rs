@@ -25,3 +25,14 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> anyhow::Re
     }
     result
 }
+
+/// Fails early, before long work, when `path` cannot be written (its
+/// directory cannot be created or is not writable).
+pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let probe = dir.join(format!(".cpg-write-test.{}", std::process::id()));
+    std::fs::File::create(&probe).with_context(|| format!("{} is not writable", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}

@@ -332,3 +332,61 @@ fn cpg_train_reproduces_the_reports_model() {
     let (_, models) = cpg_lab::experiment::train_seeds(&c, &[c.reservoir.seed], &cpg_lab::experiment::Quiet).unwrap();
     assert_eq!(std::fs::read(&out).unwrap(), models[0].to_bytes().unwrap());
 }
+
+/// `cpg tune` finds settings that keep the rhythm from a deliberately poor
+/// start, and writes them as a configuration `cpg train` takes.
+#[test]
+fn tune_finds_a_stable_configuration_from_a_poor_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("tuned.toml");
+    let config = repo().join("examples/poor-femur.toml");
+    let args = [
+        "tune",
+        "-c",
+        config.to_str().unwrap(),
+        "--budget",
+        "6",
+        "--seeds",
+        "2",
+        "--seconds",
+        "60",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let log = ok(&cpg(&args.map(std::ffi::OsStr::new)));
+    let table: Vec<&str> = log
+        .lines()
+        .filter(|l| {
+            l.trim_start().starts_with("base") || l.trim_start().chars().next().is_some_and(|c| c.is_ascii_digit())
+        })
+        .collect();
+    let base =
+        table.iter().find(|l| l.trim_start().starts_with("base")).expect("the starting configuration is in the table");
+    assert!(base.contains(" 0/2"), "the poor start passes on no seed: {base}");
+    assert!(table[0].contains(" 2/2"), "the best candidate passes on both seeds:\n{log}");
+    // The written configuration trains a model that keeps the rhythm.
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with("# Written by `cpg tune`"), "{text}");
+    let model = dir.path().join("tuned.cpg");
+    ok(&cpg(&["train".as_ref(), "-c".as_ref(), out.as_os_str(), "-o".as_ref(), model.as_os_str()]));
+    let log = ok(&cpg(&["evaluate".as_ref(), "-m".as_ref(), model.as_os_str(), "--seconds".as_ref(), "60".as_ref()]));
+    assert!(log.contains("accurate") && log.contains("): yes"), "{log}");
+    // Same search on one thread, same result.
+    let again = dir.path().join("again.toml");
+    let args2 = [
+        "tune",
+        "-c",
+        config.to_str().unwrap(),
+        "--budget",
+        "6",
+        "--seeds",
+        "2",
+        "--seconds",
+        "60",
+        "-o",
+        again.to_str().unwrap(),
+    ];
+    ok(&Command::new(env!("CARGO_BIN_EXE_cpg")).args(args2).env("RAYON_NUM_THREADS", "1").output().unwrap());
+    let strip = |t: &str| t.lines().filter(|l| !l.contains("Train it with")).collect::<Vec<_>>().join("\n");
+    assert_eq!(strip(&std::fs::read_to_string(&again).unwrap()), strip(&text));
+}

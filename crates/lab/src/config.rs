@@ -487,6 +487,40 @@ fn default_threshold() -> f64 {
     0.25
 }
 
+/// `path` relative to `dir`, through `..` where needed; both are made absolute first.
+pub fn relative_to(path: &Path, dir: &Path) -> PathBuf {
+    let abs = |p: &Path| std::path::absolute(p).map(|a| lexical(&a)).unwrap_or_else(|_| p.to_owned());
+    let (p, d) = (abs(path), abs(dir));
+    let (pc, dc): (Vec<_>, Vec<_>) = (p.components().collect(), d.components().collect());
+    let common = pc.iter().zip(&dc).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return p;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..dc.len() {
+        out.push("..");
+    }
+    for c in &pc[common..] {
+        out.push(c);
+    }
+    out
+}
+
+/// `path` with `.` and `..` resolved without touching the file system.
+fn lexical(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            std::path::Component::ParentDir => {
+                out.pop();
+            }
+            std::path::Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    out
+}
+
 /// The directory relative paths in `path` are resolved against.
 pub(crate) fn base_dir(path: &Path) -> &Path {
     path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."))
@@ -556,6 +590,23 @@ impl Config {
         }
         c.check(file)?;
         Ok(c)
+    }
+
+    /// The configuration as TOML for a file in `dir`: every path is written
+    /// relative to `dir` (absolute when it has no common root with it).
+    pub fn to_toml(&self, dir: &Path) -> Result<String> {
+        let mut c = self.clone();
+        let rel = |p: &mut PathBuf| *p = relative_to(p, dir);
+        rel(&mut c.data.skeleton);
+        rel(&mut c.output.model);
+        for s in &mut c.data.segments {
+            rel(&mut s.motion);
+        }
+        if let Some(r) = c.experiment.as_mut().and_then(|e| e.coupling.as_mut()).and_then(|k| k.robot.as_mut()) {
+            rel(&mut r.urdf);
+            rel(&mut r.map);
+        }
+        toml::to_string(&c).map_err(|e| self.error("", format!("cannot be written as TOML: {e}")))
     }
 
     /// Reads and checks a configuration file; relative paths are resolved against its directory.

@@ -13,6 +13,7 @@
 //! - [`schedule`]: control inputs over time.
 //! - [`measure`]: one definition each of a rhythm's period and amplitude,
 //!   *decayed*, *accurate*, *converged*, and of recovery after a push.
+//! - [`tune`]: a seeded random search for settings that keep the rhythm.
 //! - [`experiment`]: E1–E6 of wyffels & Schrauwen (2009) and the comparison
 //!   of generator families (Vakulenko et al. 2017), each returning typed
 //!   results that derive `Serialize`.
@@ -39,6 +40,7 @@ pub mod measure;
 pub mod prepare;
 pub mod schedule;
 pub mod train;
+pub mod tune;
 
 pub use config::Config;
 pub use error::{Error, Result};

@@ -269,11 +269,25 @@ pub struct Push {
 /// Runs `model` freely for `steps` from its start state under `controls`;
 /// returns the normalised outputs (`steps × D`). An optional push holds the fed-back outputs.
 pub fn free_run(model: &TrainedCpg, controls: &ControlSchedule, steps: usize, push: Option<&Push>) -> Result<Vec<f64>> {
+    free_run_with(model, controls, steps, push, None)
+}
+
+/// [`free_run`] with Gaussian state noise of the given (variance, seed) after every update.
+pub fn free_run_with(
+    model: &TrainedCpg,
+    controls: &ControlSchedule,
+    steps: usize,
+    push: Option<&Push>,
+    noise: Option<(f64, u64)>,
+) -> Result<Vec<f64>> {
     let d = model.outputs.len();
     let u = model.controls.len();
     controls.check(u)?;
     let rate = model.provenance.sample_rate_hz;
     let mut g = Generator::new(model);
+    if let Some((variance, seed)) = noise {
+        g.set_state_noise(variance, seed);
+    }
     let mut y = Vec::with_capacity(steps * d);
     let mut ctl = vec![0.0; u];
     for k in 0..steps {

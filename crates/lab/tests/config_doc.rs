@@ -104,3 +104,27 @@ fn errors_name_the_key_its_line_and_what_it_takes() {
     let e = err(&base.replace("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"a,b\"]"));
     assert!(e.contains("`data.controls[0]`") && e.contains("commas"), "{e}");
 }
+
+#[test]
+fn a_configuration_written_back_reads_the_same() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+    let c = Config::load(&dir.join("e5.toml")).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let text = c.to_toml(out.path()).unwrap();
+    let path = out.path().join("again.toml");
+    std::fs::write(&path, &text).unwrap();
+    let again = Config::load(&path).unwrap();
+    let canon = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_owned());
+    assert_eq!(canon(&again.data.skeleton), canon(&c.data.skeleton));
+    assert_eq!(canon(&again.data.segments[1].motion), canon(&c.data.segments[1].motion));
+    let (mut a, mut b) = (again.clone(), c.clone());
+    for x in [&mut a, &mut b] {
+        x.source = Default::default();
+        x.data.skeleton = Default::default();
+        x.output.model = Default::default();
+        for s in &mut x.data.segments {
+            s.motion = Default::default();
+        }
+    }
+    assert_eq!(a, b, "every other field survives the round trip");
+}

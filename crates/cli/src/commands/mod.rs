@@ -337,7 +337,11 @@ pub fn evaluate(
             "  converged (the rhythm no longer changes after the first minute): {}",
             if st.converged { "yes" } else { "no" }
         );
-        println!("  accurate ({}): {}", cpg_lab::experiment::stability::RULE, if st.accurate { "yes" } else { "no" });
+        println!(
+            "  {}: {}",
+            cpg_lab::experiment::stability::RULE.replacen(": ", " (", 1) + ")",
+            if st.accurate { "yes" } else { "no" }
+        );
         let r = &j.recovery;
         let s = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("after {v:.2} s"));
         println!(
@@ -347,5 +351,105 @@ pub fn evaluate(
             r.phase_shift_cycles
         );
     }
+    Ok(())
+}
+
+/// A progress bar on standard error.
+struct Bar(std::sync::Mutex<Option<indicatif::ProgressBar>>);
+
+impl cpg_lab::experiment::Progress for Bar {
+    fn start(&self, label: &str, total: u64) {
+        let b = indicatif::ProgressBar::new(total);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed} (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b.set_message(label.to_owned());
+        b.enable_steady_tick(std::time::Duration::from_millis(250));
+        *self.0.lock().unwrap_or_else(|e| e.into_inner()) = Some(b);
+    }
+    fn tick(&self) {
+        if let Some(b) = self.0.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            b.inc(1);
+        }
+    }
+    fn finish(&self) {
+        if let Some(b) = self.0.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// `cpg tune`.
+pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path>, json: bool) -> anyhow::Result<()> {
+    let base = Config::load(config)?;
+    let stem = config.file_stem().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "config".into());
+    let out = output.map(Path::to_owned).unwrap_or_else(|| config.with_file_name(format!("{stem}-tuned.toml")));
+    crate::output::check_writable(&out)?;
+    let start = Instant::now();
+    eprintln!(
+        "tuning {}: {} candidates and the starting configuration, {} seed(s) each, judged over {} s …",
+        config.display(),
+        s.budget,
+        s.seeds,
+        s.long_run_s
+    );
+    let r = cpg_lab::tune::tune(&base, s, &Bar(std::sync::Mutex::new(None)))?;
+    let minutes = start.elapsed().as_secs_f64() / 60.0;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "{:>4} {:>6} {:>9} {:>6} {:>8} {:>8} {:>7} {:>6} {:>7}  {:<20}",
+            "cand", "passed", "cost", "range", "radius", "leak", "fb", "tnoise", "prefer", "validation"
+        );
+        for c in r.candidates.iter().take(8) {
+            let k = &c.knobs;
+            let score =
+                if k.score == "nmse" { format!("nmse (noise {:.0e})", k.noise_variance) } else { "orbit".into() };
+            println!(
+                "{:>4} {:>3}/{:<2} {:>9.2} {:>6.2} {:>8.3} {:>8.3} {:>7.3} {:>6.3} {:>7} {:<20}",
+                if c.index == 0 { "base".to_owned() } else { c.index.to_string() },
+                c.passed,
+                c.seeds.len(),
+                c.mean_cost,
+                c.cost_range.1 - c.cost_range.0,
+                k.spectral_radius,
+                k.leak_rate,
+                k.feedback_scale,
+                k.teacher_noise,
+                k.prefer_larger_within,
+                score
+            );
+        }
+    }
+    let best = r.best().context("no candidate")?;
+    let mut c = best.config.clone();
+    let model = c.output.model.clone();
+    let mstem = model.file_stem().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
+    c.output.model = model.with_file_name(format!("{mstem}-tuned.cpg"));
+    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let text = format!(
+        "# Written by `cpg tune` from {} (candidate {}, {} of {} seeds passed, mean cost {:.2}; search seed {}, {} candidates).\n# Train it with: cpg train --config {}\n\n{}",
+        config.display(),
+        if best.index == 0 { "0, the starting configuration".to_owned() } else { best.index.to_string() },
+        best.passed,
+        best.seeds.len(),
+        best.mean_cost,
+        s.search_seed,
+        s.budget,
+        out.display(),
+        c.to_toml(dir)?
+    );
+    write_atomic(&out, |w| Ok(w.write_all(text.as_bytes())?))?;
+    eprintln!(
+        "{} candidates in {:.1} min ({:.1} per minute); the best passed on {} of {} seeds → {}",
+        r.candidates.len(),
+        minutes,
+        r.candidates.len() as f64 / minutes.max(1e-9),
+        best.passed,
+        best.seeds.len(),
+        tidy(&out).display()
+    );
     Ok(())
 }
