@@ -87,8 +87,12 @@ pub fn run() -> anyhow::Result<()> {
     cmd("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"], &[])?;
     layering()?;
     cmd("cargo", &["doc", "--workspace", "--no-deps"], &[("RUSTDOCFLAGS", "-D warnings")])?;
-    test(&[])
+    test(&[])?;
+    crate::fuzz::run(CI_FUZZ_SECONDS, &[])
 }
+
+/// Seconds each fuzz target runs in `cargo xtask ci` (longer runs: `cargo xtask fuzz --seconds N`).
+const CI_FUZZ_SECONDS: u64 = 30;
 
 /// Fetches the data when it is missing, then runs every test.
 pub fn test(extra: &[String]) -> anyhow::Result<()> {

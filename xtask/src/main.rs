@@ -33,7 +33,8 @@ enum Command {
     FetchData(fetch::Args),
     /// The checks CI runs, in this order: fmt, clippy (warnings denied), the
     /// crate layering rules (checked with `cargo tree`), the docs (warnings
-    /// denied), and every test (after fetching the data).
+    /// denied), every test (after fetching the data), and each fuzz target
+    /// for 30 s.
     Ci,
     /// Fetch the data if needed, then run every test of the workspace.
     Test {
@@ -59,14 +60,21 @@ enum Command {
         #[arg(long)]
         vs_reservoirpy: bool,
     },
-    /// Run the coverage-guided fuzz targets of the parsers for a bounded time.
+    /// Build the fuzz targets (ASF, AMC, TOML config, model file, control
+    /// CSV) with the stable toolchain and run each under libFuzzer for a
+    /// bounded time.
     ///
-    /// Needs cargo-fuzz (installed from crates.io when missing) and uses the
-    /// stable toolchain with RUSTC_BOOTSTRAP=1.
+    /// Needs only what a fresh machine has: cargo, the C++ compiler that
+    /// builds libFuzzer (from the libfuzzer-sys crate) and crates.io. An input
+    /// that crashes, hangs or runs out of memory is copied into
+    /// fuzz/regressions/TARGET, which `cargo test` replays. `cargo xtask ci`
+    /// runs every target for a short time.
     Fuzz {
         /// Seconds per target.
         #[arg(long, default_value_t = 60)]
         seconds: u64,
+        /// Targets to run (default: all): asf, amc, config, model, control_csv.
+        targets: Vec<String>,
     },
 }
 
@@ -76,7 +84,7 @@ fn main() -> std::process::ExitCode {
         Command::FetchData(args) => fetch::run(&args),
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
-        Command::Fuzz { seconds } => fuzz::run(seconds),
+        Command::Fuzz { seconds, targets } => fuzz::run(seconds, &targets),
         Command::Bench { vs_reservoirpy } => bench::run(vs_reservoirpy),
         Command::Train(args) => train::run(&args),
         Command::Evaluate(args) => report::run(&args),

@@ -51,7 +51,8 @@ enum Command {
         /// Its skeleton (.asf).
         #[arg(long, short)]
         skeleton: PathBuf,
-        /// Output CSV file (written atomically).
+        /// Output CSV file (`-`: standard output; a file is written atomically, a
+        /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
         /// Capture rate in Hz.
@@ -69,9 +70,13 @@ enum Command {
         /// The configuration file.
         #[arg(long, short)]
         config: PathBuf,
-        /// Write the model here instead of the path in the file's [output] section.
+        /// Write the model here instead of the path in the file's [output] section (`-`: standard output).
         #[arg(long, short)]
         output: Option<PathBuf>,
+        /// Write the model even when its best validation score is worse than 1
+        /// (a flat line at the mean scores 1); without it, training fails.
+        #[arg(long)]
+        allow_unstable: bool,
     },
     /// Run a trained CPG freely and write what it generates (CSV or AMC).
     ///
@@ -90,7 +95,8 @@ enum Command {
         /// A skeleton (.asf) for --format amc instead of the one stored in the model.
         #[arg(long)]
         skeleton: Option<PathBuf>,
-        /// Output file (written atomically).
+        /// Output file (`-`: standard output; a file is written atomically, a
+        /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -114,7 +120,8 @@ enum Command {
         /// The channel-to-joint map.
         #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
         map: PathBuf,
-        /// Output CSV (written atomically).
+        /// Output CSV (`-`: standard output; a file is written atomically, a
+        /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -193,11 +200,14 @@ struct RunArgs {
 }
 
 fn main() -> ExitCode {
+    output::install_signal_cleanup();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Inspect { file, skeleton, rate_hz } => commands::inspect(&file, skeleton.as_deref(), rate_hz),
         Command::Fk { amc, skeleton, output, rate_hz } => commands::fk(&amc, &skeleton, &output, rate_hz),
-        Command::Train { config, output } => commands::train(&config, output.as_deref()),
+        Command::Train { config, output, allow_unstable } => {
+            commands::train(&config, output.as_deref(), allow_unstable)
+        }
         Command::Generate { run, seconds, format, skeleton, output } => commands::generate(
             &run.model,
             seconds,
@@ -233,8 +243,26 @@ fn main() -> ExitCode {
             if e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes on one line, each cause once: a library error
+/// whose message already quotes its source (`file: … (os error 2)`) is not
+/// followed by that source again.
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
 }

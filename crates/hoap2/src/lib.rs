@@ -81,8 +81,35 @@ pub enum Error {
     },
 }
 
+/// A number as a message shows it: plain when of ordinary size, else in `e` notation.
+fn short_number(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
+}
+
 /// Result alias for this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The largest URDF or map file read, bytes.
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
+
+/// Reads a UTF-8 text file of at most [`MAX_FILE_BYTES`].
+fn read_text(path: &Path) -> Result<String> {
+    use std::io::Read as _;
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).map_err(io)?.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(Error::Input(format!("{}: larger than {MAX_FILE_BYTES} bytes", path.display())));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        Error::Input(format!(
+            "{}: not UTF-8 text (invalid byte at offset {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    Ok(text.strip_prefix('\u{feff}').map(str::to_owned).unwrap_or(text))
+}
 
 /// One revolute joint.
 #[derive(Debug, Clone, PartialEq)]
@@ -153,7 +180,7 @@ impl Robot {
 
     /// Reads a URDF file.
     pub fn from_urdf_file(path: &Path) -> Result<Robot> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let text = read_text(path)?;
         Robot::from_urdf_str(&text, path)
     }
 
@@ -178,6 +205,13 @@ pub struct MapEntry {
     /// Added after the sign, degrees.
     pub offset_deg: f64,
 }
+
+/// Slowest rate a trajectory is resampled to, Hz.
+pub const MIN_RATE_HZ: f64 = 1.0;
+/// Fastest rate a trajectory is resampled to, Hz (ten times a 1 kHz servo loop).
+pub const MAX_RATE_HZ: f64 = 10_000.0;
+/// Most values (frames × joints) a resampled trajectory holds.
+pub const MAX_VALUES: usize = 1 << 27;
 
 /// Channel → joint relations, read from a tab-separated file with the
 /// columns `joint channel sign offset_deg note` (`#` lines are comments).
@@ -240,7 +274,7 @@ impl ChannelMap {
 
     /// Reads a map file.
     pub fn load(path: &Path) -> Result<ChannelMap> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let text = read_text(path)?;
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         ChannelMap::parse(&text, &name)
     }
@@ -362,15 +396,12 @@ impl JointTrajectory {
     /// Resamples to `rate_hz` by linear interpolation over the same duration
     /// (the last output frame is at or before the last input frame).
     pub fn resample(&self, rate_hz: f64) -> Result<JointTrajectory> {
-        if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(Error::Input(format!("rate {rate_hz} Hz must be positive")));
-        }
         let (n_in, d) = (self.n_frames(), self.joints.len());
         if n_in == 0 {
             return Err(Error::Input("empty trajectory".into()));
         }
         let duration_s = (n_in - 1) as f64 / self.rate_hz;
-        let n_out = (duration_s * rate_hz + 1e-9).floor() as usize + 1;
+        let n_out = JointTrajectory::check_rate(rate_hz, duration_s, d)?;
         let mut values_rad = Vec::with_capacity(n_out * d);
         for k in 0..n_out {
             let pos = k as f64 / rate_hz * self.rate_hz;
@@ -383,6 +414,26 @@ impl JointTrajectory {
             }
         }
         Ok(JointTrajectory { joints: self.joints.clone(), values_rad, rate_hz, clamps: self.clamps.clone() })
+    }
+
+    /// Checks a resampling rate for `duration_s` of `d` joints and returns the
+    /// frames it gives: the rate within [`MIN_RATE_HZ`, `MAX_RATE_HZ`], at most
+    /// [`MAX_VALUES`] values.
+    pub fn check_rate(rate_hz: f64, duration_s: f64, d: usize) -> Result<usize> {
+        if !(rate_hz.is_finite() && (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&rate_hz)) {
+            return Err(Error::Input(format!(
+                "rate {} Hz: expected {MIN_RATE_HZ} to {MAX_RATE_HZ} Hz",
+                short_number(rate_hz)
+            )));
+        }
+        let n_out = (duration_s.max(0.0) * rate_hz + 1e-9).floor() + 1.0;
+        if n_out * d.max(1) as f64 > MAX_VALUES as f64 {
+            return Err(Error::Input(format!(
+                "{duration_s:.1} s at {rate_hz} Hz × {d} joints is {:.3e} values; at most {MAX_VALUES} (1 GiB)",
+                n_out * d as f64
+            )));
+        }
+        Ok(n_out as usize)
     }
 
     /// CSV text: `time_s`, then one column per joint in radians (`<joint>_rad`).

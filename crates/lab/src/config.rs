@@ -278,6 +278,79 @@ pub struct PushSection {
     pub above_max: f64,
 }
 
+impl PushSection {
+    /// Checks the ranges: a start within an hour, a hold within a minute, a finite height.
+    fn check(&self) -> std::result::Result<(), String> {
+        if !(self.at_s.is_finite() && (0.0..=3600.0).contains(&self.at_s)) {
+            return Err(format!("at_s = {}; expected 0 to 3600 s", self.at_s));
+        }
+        if !(self.hold_s.is_finite() && (0.0..=60.0).contains(&self.hold_s)) {
+            return Err(format!("hold_s = {}; expected 0 to 60 s", self.hold_s));
+        }
+        if !(self.above_max.is_finite() && self.above_max.abs() <= 100.0) {
+            return Err(format!("above_max = {}; expected -100 to 100 standard deviations", self.above_max));
+        }
+        Ok(())
+    }
+}
+
+impl ExperimentSection {
+    /// Bounds every count and duration of the test protocol: (field, message) on failure.
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        let fail = |f: &str, m: String| Err((format!("experiment.{f}"), m));
+        let secs = |f: &str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err((format!("experiment.{f}"), format!("{v}; expected {lo} to {hi} s")))
+            }
+        };
+        if !(1..=1000).contains(&self.seeds) {
+            return fail("seeds", format!("{}; expected 1 to 1000", self.seeds));
+        }
+        if !(1..=1000).contains(&self.quick_seeds) {
+            return fail("quick_seeds", format!("{}; expected 1 to 1000", self.quick_seeds));
+        }
+        const DAY_S: f64 = 86_400.0;
+        if let Some(st) = &self.stability {
+            secs("stability.long_run_s", st.long_run_s, 1.0, DAY_S)?;
+            secs("stability.quick_long_run_s", st.quick_long_run_s, 1.0, DAY_S)?;
+            if !(1..=crate::prepare::MAX_TRAINING_SAMPLES).contains(&st.first_samples) {
+                return fail("stability.first_samples", format!("{}; expected 1 to 2000000", st.first_samples));
+            }
+            st.push.check().map_err(|m| ("experiment.stability.push".to_owned(), m))?;
+        }
+        if let Some(f) = &self.frequency {
+            if f.plateaus.is_empty() || f.plateaus.len() > 1000 || f.plateaus.iter().any(|v| !v.is_finite()) {
+                return fail("frequency.plateaus", "needs 1 to 1000 finite values".into());
+            }
+            secs("frequency.hold_s", f.hold_s, 0.0, 3600.0)?;
+            secs("frequency.ramp_s", f.ramp_s, 0.0, 3600.0)?;
+            if f.figure.len() > 1000 || f.figure.iter().flatten().any(|v| !v.is_finite() || v.abs() > DAY_S) {
+                return fail("frequency.figure", "needs at most 1000 finite [time_s, value] knots".into());
+            }
+        }
+        if let Some(g) = &self.gaits {
+            secs("gaits.run_s", g.run_s, 1.0, DAY_S)?;
+            secs("gaits.ramp_s", g.ramp_s, 0.0, 3600.0)?;
+            for (k, t) in g.switch_at_s.iter().enumerate() {
+                secs(&format!("gaits.switch_at_s[{k}]"), *t, 0.0, g.run_s)?;
+            }
+            if !(g.threshold_sd.is_finite() && g.threshold_sd > 0.0 && g.threshold_sd <= 100.0) {
+                return fail("gaits.threshold_sd", format!("{}; expected above 0 and at most 100", g.threshold_sd));
+            }
+        }
+        if let Some(c) = &self.coupling {
+            secs("coupling.run_s", c.run_s, 1.0, DAY_S)?;
+            secs("coupling.quick_run_s", c.quick_run_s, 1.0, DAY_S)?;
+            if !(1..=20_000).contains(&c.quick_neurons) {
+                return fail("coupling.quick_neurons", format!("{}; expected 1 to 20000", c.quick_neurons));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for PushSection {
     fn default() -> Self {
         PushSection { at_s: default_push_at(), hold_s: default_push_hold(), above_max: default_push_above() }
@@ -535,8 +608,13 @@ pub(crate) fn read_text(path: &Path) -> Result<String> {
         return Err(bad(format!("{} bytes; a configuration has at most {MAX_CONFIG_BYTES}", meta.len())));
     }
     let bytes = std::fs::read(path).map_err(io)?;
-    String::from_utf8(bytes)
-        .map_err(|e| bad(format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))
+    let text = String::from_utf8(bytes)
+        .map_err(|e| bad(format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))?;
+    // A byte-order mark (some Windows editors write one) is not part of the TOML.
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_owned(),
+        None => text,
+    })
 }
 
 /// Deserialises TOML text into `T`; errors name the field path and the line.
@@ -686,9 +764,24 @@ impl Config {
         if !(d.max_seam_excess.is_finite() && d.max_seam_excess >= 0.0) {
             return Err(bad("data.max_seam_excess", format!("{}; expected a number >= 0", d.max_seam_excess)));
         }
-        if d.repeats == 0 {
-            return Err(bad("data.repeats", "must be at least 1".into()));
+        // Every size taken from the file is bounded here, before any data is read or allocated.
+        let max_samples = crate::prepare::MAX_TRAINING_SAMPLES;
+        let within = |field: &str, v: usize, lo: usize, hi: usize| {
+            if (lo..=hi).contains(&v) { Ok(()) } else { Err(bad(field, format!("{v}; expected {lo} to {hi}"))) }
+        };
+        within("data.repeats", d.repeats, 1, 10_000)?;
+        within("data.loop_cycles", d.loop_cycles, 0, 100)?;
+        within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
+        if let Some(t) = &d.tempo {
+            within("data.tempo.samples", t.samples, 1, max_samples)?;
+            within("data.tempo.knot_every", t.knot_every, 1, max_samples)?;
+            if t.teachers.len() > 100 {
+                return Err(bad("data.tempo.teachers", format!("{} rates; at most 100", t.teachers.len())));
+            }
         }
+        within("training.washout", self.training.washout, 0, max_samples)?;
+        within("training.validation_samples", self.training.validation_samples, 1, max_samples)?;
+        within("training.noise_draws", self.training.noise_draws, 1, crate::train::MAX_NOISE_DRAWS)?;
         if let Some(t) = tempo {
             if d.controls != [t.control.clone()] {
                 return Err(bad(
@@ -726,6 +819,16 @@ impl Config {
         if !(p.start.is_finite() && p.stop.is_finite() && p.step.is_finite() && p.step > 0.0) {
             return Err(bad("training.penalty_log10", "needs finite {start, step, stop} with step > 0".into()));
         }
+        let n_penalties = ((p.start - p.stop).abs() / p.step).floor() + 1.0;
+        if n_penalties.is_nan() || n_penalties > crate::train::MAX_PENALTIES as f64 {
+            return Err(bad(
+                "training.penalty_log10",
+                format!("gives {n_penalties} penalties; at most {} (use a larger step)", crate::train::MAX_PENALTIES),
+            ));
+        }
+        if !(p.start.abs() <= 300.0 && p.stop.abs() <= 300.0) {
+            return Err(bad("training.penalty_log10", "start and stop must lie within -300 to 300".into()));
+        }
         match t.score.as_str() {
             "nmse" => {
                 if t.orbit.is_some() {
@@ -753,14 +856,17 @@ impl Config {
         if !(t.noise_variance.is_finite() && t.noise_variance >= 0.0) {
             return Err(bad("training.noise_variance", format!("{}; expected a number >= 0", t.noise_variance)));
         }
-        if t.noise_draws == 0 {
-            return Err(bad("training.noise_draws", "must be at least 1".into()));
-        }
         if !(t.teacher_noise.is_finite() && (0.0..=10.0).contains(&t.teacher_noise)) {
             return Err(bad("training.teacher_noise", format!("{}; expected 0 to 10", t.teacher_noise)));
         }
         if !(t.prefer_larger_within.is_finite() && (0.0..=100.0).contains(&t.prefer_larger_within)) {
             return Err(bad("training.prefer_larger_within", format!("{}; expected 0 to 100", t.prefer_larger_within)));
+        }
+        if let Some(push) = t.orbit.as_ref().and_then(|o| o.push.as_ref()) {
+            push.check().map_err(|m| bad("training.orbit.push", m))?;
+        }
+        if let Some(e) = &self.experiment {
+            e.check().map_err(|(field, m)| bad(&field, m))?;
         }
         Ok(())
     }

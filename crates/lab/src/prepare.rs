@@ -149,10 +149,11 @@ struct Read {
 
 fn read(c: &Config) -> Result<Read> {
     let d_sec = &c.data;
-    let skeleton_asf = std::fs::read_to_string(&d_sec.skeleton)
-        .map_err(|source| Error::Io { path: d_sec.skeleton.clone(), source })?;
-    let skeleton = cpg_mocap::parse_asf(&d_sec.skeleton.display().to_string(), skeleton_asf.as_bytes())
-        .map_err(cpg_mocap::Error::from)?;
+    let bytes = cpg_mocap::read_bounded(&d_sec.skeleton, cpg_mocap::MAX_INPUT_BYTES)?;
+    let skeleton =
+        cpg_mocap::parse_asf(&d_sec.skeleton.display().to_string(), &bytes).map_err(cpg_mocap::Error::from)?;
+    // parse_asf accepted the bytes, so they are UTF-8.
+    let skeleton_asf = String::from_utf8_lossy(&bytes).into_owned();
     let channels = crate::channels::expand(&d_sec.channels, &skeleton).map_err(|m| c.error("data.channels", m))?;
     let names: Vec<&str> = channels.iter().map(String::as_str).collect();
     let mut parts = Vec::new();

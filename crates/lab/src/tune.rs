@@ -218,7 +218,7 @@ fn judge(c: &Config, seed: u64, s: &TuneSettings) -> Result<SeedScore> {
     let m = match train_prepared(c, &p, seed) {
         Ok(m) => m,
         // A candidate whose every penalty diverges is a bad candidate, not an error.
-        Err(Error::Reservoir(cpg_reservoir::Error::Settings(_))) => return Ok(failed(seed)),
+        Err(Error::Reservoir(cpg_reservoir::Error::AllDiverged { .. })) => return Ok(failed(seed)),
         Err(e) => return Err(e),
     };
     let rate = c.data.rate_hz;

@@ -6,6 +6,10 @@ use crate::error::{Error, ParseError, ParseErrorKind as K, Result};
 use crate::lex::{self, Ctx};
 use crate::{Channel, Motion, Skeleton};
 
+/// The largest frame number accepted (CMU trials have a few thousand frames;
+/// the bound keeps `previous + 1` from overflowing).
+pub const MAX_FRAME_NUMBER: usize = 1_000_000_000;
+
 /// Parses AMC text against a skeleton. `file` names the source in errors;
 /// `sample_rate_hz` is the capture rate (CMU: 120), which AMC does not store.
 ///
@@ -104,8 +108,12 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
                     )
                     .into());
             }
-            let n: usize = first.text.parse().map_err(|_| {
-                cx.err(l.number, first.column, K::BadNumber { token: first.text.into(), expected: "a frame number" })
+            let n: usize = first.text.parse().ok().filter(|&n| n <= MAX_FRAME_NUMBER).ok_or_else(|| {
+                cx.err(
+                    l.number,
+                    first.column,
+                    K::BadNumber { token: first.text.into(), expected: "a frame number from 0 to 1000000000" },
+                )
             })?;
             match frame_no {
                 None => first_frame_no = n,
@@ -199,6 +207,16 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
 /// have are written as 0 (the zero pose). Values use the shortest text that
 /// reads back to the same `f64`, so `parse_amc(write_amc(m)) == m` for a full motion.
 pub fn write_amc(skeleton: &Skeleton, motion: &Motion) -> Result<String> {
+    // What is written must parse back: every value within the parser's range.
+    if let Some(k) = motion.values().iter().position(|v| v.abs() > crate::MAX_MAGNITUDE) {
+        let c = &motion.channels()[k % motion.channels().len()];
+        return Err(Error::InvalidArgument(format!(
+            "frame {}, channel {c}: {:e} is beyond ±{} and could not be read back",
+            k / motion.channels().len() + 1,
+            motion.values()[k],
+            crate::MAX_MAGNITUDE
+        )));
+    }
     let mut bones: Vec<&str> = Vec::new();
     for c in motion.channels() {
         let Some(dofs) = skeleton.dofs_of(&c.bone) else {

@@ -49,8 +49,8 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                         cx.err(u.number, 0, K::Arity { keyword: key.text.into(), expected: 1, found: 0 })
                     })?;
                     match key.text {
-                        "mass" => sk.units.mass = positive(&cx, u.number, *val, "a positive mass unit")?,
-                        "length" => sk.units.length = positive(&cx, u.number, *val, "a positive length unit")?,
+                        "mass" => sk.units.mass = positive(&cx, u.number, *val, "a mass unit of at least 1e-6")?,
+                        "length" => sk.units.length = positive(&cx, u.number, *val, "a length unit of at least 1e-6")?,
                         "angle" => {
                             sk.units.angle = match val.text.to_ascii_lowercase().as_str() {
                                 "deg" | "degrees" => AngleUnit::Deg,
@@ -185,7 +185,8 @@ fn rest_of(l: &Line<'_>) -> String {
 
 fn positive(cx: &Ctx<'_>, line: usize, t: lex::Tok<'_>, what: &'static str) -> Result<f64, ParseError> {
     let v = cx.num(line, t, what)?;
-    if v <= 0.0 {
+    // Units are divided by: below 1e-6 the scale factor itself leaves the range of any file's numbers.
+    if v < 1e-6 {
         return Err(cx.err(line, t.column, K::Unexpected { expected: what.into(), found: t.text.into() }));
     }
     Ok(v)

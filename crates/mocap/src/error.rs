@@ -21,6 +21,14 @@ pub enum Error {
         /// The underlying I/O error.
         source: std::io::Error,
     },
+    /// A file is larger than this crate reads.
+    #[error("{}: larger than {max_bytes} bytes, the most read from one input file", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The limit.
+        max_bytes: u64,
+    },
     /// A channel name is not part of a motion.
     #[error("unknown channel '{name}'; valid channels are: {}", valid.join(", "))]
     UnknownChannel {
@@ -131,6 +139,16 @@ pub enum ParseErrorKind {
     NonFinite {
         /// The token.
         token: String,
+    },
+    /// A finite number too large in magnitude to mean anything here.
+    #[error("'{token}' is out of range; expected {expected} within ±{max}")]
+    OutOfRange {
+        /// The token.
+        token: String,
+        /// What number was expected.
+        expected: &'static str,
+        /// The largest magnitude allowed.
+        max: f64,
     },
     /// A line has too few or too many values.
     #[error("'{keyword}' takes {expected} values, found {found}")]

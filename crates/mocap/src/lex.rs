@@ -51,8 +51,10 @@ pub(crate) fn tokens(line: &str) -> Vec<Tok<'_>> {
 }
 
 /// Iterates the meaningful lines of a text (CRLF or LF), skipping blank lines
-/// and `#` comments. Every line yielded has at least one token.
+/// and `#` comments. Every line yielded has at least one token. A UTF-8
+/// byte-order mark at the start (as some Windows editors write) is skipped.
 pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     text.split('\n').enumerate().filter_map(|(i, raw)| {
         let t = raw.strip_suffix('\r').unwrap_or(raw);
         let trimmed = t.trim_start();
@@ -69,6 +71,11 @@ pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
     })
 }
 
+/// The largest magnitude of any number in an ASF or AMC file: a million
+/// degrees or length units. Beyond it no motion is meant, and products of such
+/// values (kinematics, z-scores) would overflow to infinity.
+pub const MAX_MAGNITUDE: f64 = 1e6;
+
 /// Error helper bound to one file name.
 pub(crate) struct Ctx<'f> {
     pub file: &'f str,
@@ -76,7 +83,7 @@ pub(crate) struct Ctx<'f> {
 
 impl Ctx<'_> {
     pub fn err(&self, line: usize, column: usize, kind: ParseErrorKind) -> ParseError {
-        ParseError { file: self.file.to_owned(), line, column, kind }
+        ParseError { file: self.file.to_owned(), line, column, kind: clip_kind(kind) }
     }
 
     /// Parses a finite number.
@@ -97,6 +104,13 @@ impl Ctx<'_> {
         })?;
         if v.is_nan() || (v.is_infinite() && !(allow_inf && tok.text.to_ascii_lowercase().contains("inf"))) {
             return Err(self.err(line, tok.column, ParseErrorKind::NonFinite { token: tok.text.to_owned() }));
+        }
+        if v.is_finite() && v.abs() > MAX_MAGNITUDE {
+            return Err(self.err(
+                line,
+                tok.column,
+                ParseErrorKind::OutOfRange { token: tok.text.to_owned(), expected, max: MAX_MAGNITUDE },
+            ));
         }
         Ok(v)
     }
@@ -123,5 +137,55 @@ impl Ctx<'_> {
             ));
         }
         Ok(out)
+    }
+}
+
+/// The longest piece of input quoted in a message, in characters.
+const MAX_QUOTED_CHARS: usize = 60;
+
+/// Shortens quoted input to [`MAX_QUOTED_CHARS`], saying how long it was,
+/// so that a 50 MB token does not become a 50 MB message.
+pub(crate) fn clip(s: String) -> String {
+    match s.char_indices().nth(MAX_QUOTED_CHARS) {
+        None => s,
+        Some((cut, _)) => format!("{}… ({} bytes in all)", &s[..cut], s.len()),
+    }
+}
+
+fn clip_kind(kind: ParseErrorKind) -> ParseErrorKind {
+    use ParseErrorKind as K;
+    match kind {
+        K::Unexpected { expected, found } => K::Unexpected { expected, found: clip(found) },
+        K::BadNumber { token, expected } => K::BadNumber { token: clip(token), expected },
+        K::NonFinite { token } => K::NonFinite { token: clip(token) },
+        K::OutOfRange { token, expected, max } => K::OutOfRange { token: clip(token), expected, max },
+        K::Arity { keyword, expected, found } => K::Arity { keyword: clip(keyword), expected, found },
+        K::UnknownDof(t) => K::UnknownDof(clip(t)),
+        K::UnknownAxisOrder(t) => K::UnknownAxisOrder(clip(t)),
+        K::UnknownBone(t) => K::UnknownBone(clip(t)),
+        K::DuplicateBone(t) => K::DuplicateBone(clip(t)),
+        K::MissingField { bone, field } => K::MissingField { bone: clip(bone), field },
+        K::LimitsCount { bone, expected, found } => K::LimitsCount { bone: clip(bone), expected, found },
+        K::WrongValueCount { bone, found, declared } => K::WrongValueCount { bone: clip(bone), found, declared },
+        K::DuplicateInFrame { bone, frame } => K::DuplicateInFrame { bone: clip(bone), frame },
+        K::NoDofBone(t) => K::NoDofBone(clip(t)),
+        other => other,
+    }
+}
+
+#[cfg(test)]
+mod clip_tests {
+    use super::*;
+
+    #[test]
+    fn long_tokens_are_shortened_and_short_ones_kept() {
+        assert_eq!(clip("lfemur".into()), "lfemur");
+        let long = "x".repeat(5_000_000);
+        let c = clip(long);
+        assert!(c.len() < 100, "{}", c.len());
+        assert!(c.ends_with("(5000000 bytes in all)"), "{c}");
+        // A multi-byte character at the cut is not split.
+        let c = clip("é".repeat(100));
+        assert!(c.starts_with(&"é".repeat(60)) && c.contains("200 bytes"), "{c}");
     }
 }

@@ -34,6 +34,7 @@ pub use amc::{parse_amc, write_amc};
 pub use asf::parse_asf;
 pub use error::{Error, ParseError, ParseErrorKind, Result};
 pub use kinematics::Positions;
+pub use lex::MAX_MAGNITUDE;
 pub use motion::{Channel, Motion, ZScore};
 
 use std::path::Path;
@@ -208,11 +209,28 @@ pub struct Skeleton {
     pub bones: Vec<Bone>,
 }
 
+/// The most bytes read from one input file (CMU's longest AMC trials are a few MB).
+pub const MAX_INPUT_BYTES: u64 = 256 << 20;
+
+/// Reads a whole file, but at most `max_bytes`: a larger file (or an endless
+/// one such as `/dev/zero`) is an error, not an allocation without bound.
+pub fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
+    use std::io::Read as _;
+    let io = |source| Error::Io { path: path.to_owned(), source };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    file.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(Error::TooLarge { path: path.to_owned(), max_bytes });
+    }
+    Ok(bytes)
+}
+
 impl Skeleton {
     /// Reads and parses an ASF file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Skeleton> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let bytes = read_bounded(path, MAX_INPUT_BYTES)?;
         Ok(parse_asf(&file_label(path), &bytes)?)
     }
 

@@ -81,7 +81,7 @@ impl Motion {
     /// Reads an AMC file against a skeleton.
     pub fn from_amc_file(path: impl AsRef<Path>, skeleton: &Skeleton, sample_rate_hz: f64) -> Result<Motion> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let bytes = crate::read_bounded(path, crate::MAX_INPUT_BYTES)?;
         crate::parse_amc(&crate::file_label(path), &bytes, skeleton, sample_rate_hz)
     }
 

@@ -21,9 +21,28 @@ fn full_channels(sk: &Skeleton) -> Vec<Channel> {
     ch
 }
 
-/// Finite values spanning many magnitudes, including subnormal-adjacent and huge ones.
+/// Values spanning every magnitude an AMC file may hold (up to ±`MAX_MAGNITUDE`), down to subnormal-adjacent ones.
 fn value() -> impl Strategy<Value = f64> {
-    prop_oneof![-360.0..360.0f64, (-1e300..1e300f64), (-1e-300..1e-300f64), Just(0.0), Just(-0.0),]
+    prop_oneof![
+        -360.0..360.0f64,
+        (-cpg_mocap::MAX_MAGNITUDE..=cpg_mocap::MAX_MAGNITUDE),
+        (-1e-300..1e-300f64),
+        Just(cpg_mocap::MAX_MAGNITUDE),
+        Just(0.0),
+        Just(-0.0),
+    ]
+}
+
+/// Beyond the range the parser reads, writing refuses instead of writing a file that cannot be read.
+#[test]
+fn values_beyond_the_readable_range_are_not_written() {
+    let sk = skeleton();
+    let ch = full_channels(&sk);
+    let mut values = vec![1.0; ch.len()];
+    values[3] = 1e300;
+    let m = Motion::new(ch, values, 120.0).unwrap();
+    let e = write_amc(&sk, &m).unwrap_err().to_string();
+    assert!(e.contains("frame 1") && e.contains("1e300"), "{e}");
 }
 
 proptest! {

@@ -30,6 +30,12 @@ pub enum Error {
         /// Matrix size.
         n: usize,
     },
+    /// Every candidate penalty's validation free run diverged.
+    #[error("every one of the {candidates} candidate penalties diverged in validation")]
+    AllDiverged {
+        /// Candidates validated.
+        candidates: usize,
+    },
     /// The random matrix has spectral radius 0 (for example no connections), so it cannot be rescaled.
     #[error("the reservoir matrix has spectral radius 0 and cannot be rescaled (connectivity too low?)")]
     ZeroRadius,

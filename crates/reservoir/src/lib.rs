@@ -41,7 +41,8 @@ pub use engine::Hold;
 pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;
 pub use model::{
-    FORMAT_VERSION, MAGIC, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher, TrainedCpg,
+    FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,
+    TrainedCpg,
 };
 pub use orbit::{OrbitStay, orbit_nmse};
 pub use real::Real;

@@ -37,6 +37,44 @@ pub const MIN_SAMPLE_RATE_HZ: f64 = 1.0;
 const MAX_NORMALISATION: f64 = 1e6;
 const HEADER: usize = 28;
 
+/// Decodes a payload with a bound on what its length prefixes may claim: a
+/// few times the payload's own size (in steps), so that a corrupt length
+/// (a string of 2^56 bytes in a 260-byte file) is an error, not an allocation.
+fn decode_payload(payload: &[u8]) -> std::result::Result<(FileV2, usize), bincode::error::DecodeError> {
+    use bincode::config::standard;
+    use bincode::serde::decode_from_slice;
+    const MIB: usize = 1 << 20;
+    match payload.len() {
+        n if n <= MIB => decode_from_slice(payload, standard().with_limit::<{ 4 * MIB }>()),
+        n if n <= 16 * MIB => decode_from_slice(payload, standard().with_limit::<{ 64 * MIB }>()),
+        n if n <= 256 * MIB => decode_from_slice(payload, standard().with_limit::<{ 1024 * MIB }>()),
+        _ => decode_from_slice(payload, standard().with_limit::<{ 16 * 1024 * MIB }>()),
+    }
+}
+
+/// Says in words what a bincode decoding error means (its own `Display` is its `Debug`).
+fn decode_error(e: &bincode::error::DecodeError) -> String {
+    use bincode::error::DecodeError as D;
+    match e {
+        D::UnexpectedEnd { additional } => format!("it ends {additional} byte(s) too early"),
+        D::LimitExceeded => "a length in it exceeds the decoder's limit".into(),
+        D::InvalidIntegerType { .. } | D::OutsideUsizeRange(_) | D::NonZeroTypeIsZero { .. } => {
+            "an integer in it is out of range".into()
+        }
+        D::UnexpectedVariant { type_name, found, .. } => format!("variant {found} of {type_name} does not exist"),
+        D::Utf8 { inner } => format!("a name in it is not UTF-8 ({inner})"),
+        D::InvalidCharEncoding(_) => "a character in it is not valid UTF-8".into(),
+        D::InvalidBooleanValue(b) => format!("byte {b} stands where a boolean (0 or 1) belongs"),
+        D::ArrayLengthMismatch { required, found } => format!("an array has {found} elements, {required} expected"),
+        D::OtherString(m) => m.clone(),
+        D::Other(m) => (*m).to_owned(),
+        _ => "the bytes do not decode as a model".into(),
+    }
+}
+
+/// The largest model file read, bytes (4 GiB: the memory budget of training).
+pub const MAX_MODEL_BYTES: u64 = 4 << 30;
+
 /// Name and normalisation of one output channel: the network works on
 /// `(value − mean) / std`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -287,13 +325,20 @@ impl TrainedCpg {
         };
         let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
             .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
+        Ok(TrainedCpg::frame_payload(&payload))
+    }
+
+    /// A model file around `payload`: the magic bytes, the format version,
+    /// the payload's length and checksum, then the payload. The fuzz targets
+    /// use it to reach the decoder and the field checks past the checksum.
+    pub fn frame_payload(payload: &[u8]) -> Vec<u8> {
         let mut out = Vec::with_capacity(HEADER + payload.len());
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
         out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
-        out.extend_from_slice(&payload);
-        Ok(out)
+        out.extend_from_slice(&fnv1a(payload).to_le_bytes());
+        out.extend_from_slice(payload);
+        out
     }
 
     /// Parses the file format; `path` only names the source in errors.
@@ -328,8 +373,7 @@ impl TrainedCpg {
         if fnv1a(payload) != sum {
             return Err(bad("corrupt: the payload checksum does not match".into()));
         }
-        let (f, used): (FileV2, usize) = bincode::serde::decode_from_slice(payload, bincode::config::standard())
-            .map_err(|e| bad(format!("corrupt payload: {e}")))?;
+        let (f, used) = decode_payload(payload).map_err(|e| bad(format!("corrupt payload: {}", decode_error(&e))))?;
         if used != payload.len() {
             return Err(bad(format!("corrupt payload: {} trailing bytes", payload.len() - used)));
         }
@@ -351,9 +395,30 @@ impl TrainedCpg {
     }
 
     /// Writes the model to `path` atomically (a temporary file beside it, then a rename).
+    ///
+    /// A symlink is followed and its target replaced, the link kept; a path
+    /// that names a device, FIFO or directory is refused (write
+    /// [`TrainedCpg::to_bytes`] there yourself).
     pub fn save(&self, path: &Path) -> Result<()> {
         let bytes = self.to_bytes()?;
-        let io = |source| Error::Io { path: path.to_owned(), source };
+        let given = path;
+        let io = |source| Error::Io { path: given.to_owned(), source };
+        let resolved;
+        let path = match std::fs::symlink_metadata(path) {
+            Ok(m) if m.file_type().is_symlink() => {
+                resolved = std::fs::canonicalize(path).map_err(io)?;
+                resolved.as_path()
+            }
+            _ => path,
+        };
+        if let Ok(m) = std::fs::metadata(path)
+            && !m.is_file()
+        {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file: a model is saved only to a regular file",
+            )));
+        }
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         std::fs::create_dir_all(dir).map_err(io)?;
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -371,8 +436,19 @@ impl TrainedCpg {
     }
 
     /// Reads a model file.
+    ///
+    /// At most [`MAX_MODEL_BYTES`] are read.
     pub fn load(path: &Path) -> Result<TrainedCpg> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        use std::io::Read as _;
+        let io = |source| Error::Io { path: path.to_owned(), source };
+        let mut bytes = Vec::new();
+        std::fs::File::open(path).map_err(io)?.take(MAX_MODEL_BYTES + 1).read_to_end(&mut bytes).map_err(io)?;
+        if bytes.len() as u64 > MAX_MODEL_BYTES {
+            return Err(Error::ModelFile {
+                path: path.to_owned(),
+                reason: format!("larger than {MAX_MODEL_BYTES} bytes, the most a model file holds"),
+            });
+        }
         TrainedCpg::from_bytes(&bytes, path)
     }
 }

@@ -484,7 +484,7 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
     let (curve, x0) = validate_in(&engine, &candidates, data, settings)?;
     let best = curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
     if !best.is_finite() {
-        return Err(Error::Settings("every candidate penalty diverged in validation".into()));
+        return Err(Error::AllDiverged { candidates: curve.len() });
     }
     let limit = best * (1.0 + settings.prefer_larger_within);
     let chosen = (0..curve.len())

@@ -4,13 +4,14 @@ use std::path::Path;
 
 use cpg_mocap::{Motion, Skeleton};
 
-use crate::output::write_atomic;
+use crate::output::{Destination, write_output};
 
 pub fn run(amc: &Path, skeleton: &Path, output: &Path, rate_hz: f64) -> anyhow::Result<()> {
     let sk = Skeleton::from_file(skeleton)?;
     let m = Motion::from_amc_file(amc, &sk, rate_hz)?;
     let p = sk.forward_kinematics(&m)?;
-    write_atomic(output, |w| {
+    let dest = crate::output::check_writable(output)?;
+    write_output(output, |w| {
         write!(w, "frame,time_s")?;
         for n in &p.names {
             write!(w, ",{n}_x_mm,{n}_y_mm,{n}_z_mm")?;
@@ -25,6 +26,6 @@ pub fn run(amc: &Path, skeleton: &Path, output: &Path, rate_hz: f64) -> anyhow::
         }
         Ok(())
     })?;
-    eprintln!("wrote {} frames × {} points to {}", p.n_frames(), p.names.len(), output.display());
+    eprintln!("wrote {} frames × {} points to {}", p.n_frames(), p.names.len(), Destination::describe(&dest));
     Ok(())
 }

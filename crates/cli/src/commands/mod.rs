@@ -16,7 +16,7 @@ use cpg_lab::{Config, ControlSchedule};
 use cpg_mocap::{Channel, Motion, Skeleton, write_amc};
 use cpg_reservoir::TrainedCpg;
 
-use crate::output::write_atomic;
+use crate::output::{check_writable, write_output};
 
 /// A path without `.`/`..` components, for messages.
 fn tidy(p: &Path) -> PathBuf {
@@ -33,12 +33,16 @@ fn tidy(p: &Path) -> PathBuf {
     out
 }
 
+/// The worst validation score `cpg train` accepts without `--allow-unstable`.
+const UNSTABLE_SCORE: f64 = 1.0;
+
 /// `cpg train`.
-pub fn train(config: &Path, output: Option<&Path>) -> anyhow::Result<()> {
+pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyhow::Result<()> {
     let mut c = Config::load(config)?;
     if let Some(o) = output {
         c.output.model = o.to_owned();
     }
+    let dest = check_writable(&c.output.model)?;
     let start = Instant::now();
     eprintln!("preparing the data of {} …", config.display());
     let p = cpg_lab::prepare::prepare(&c)?;
@@ -57,22 +61,46 @@ pub fn train(config: &Path, output: Option<&Path>) -> anyhow::Result<()> {
         s.n_noise_draws,
         c.training.score
     );
-    let model = cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)?;
-    model.save(&c.output.model)?;
+    let model = match cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed) {
+        Err(cpg_lab::Error::Reservoir(e @ cpg_reservoir::Error::AllDiverged { .. })) => bail!(
+            "{}: {e}: the reservoir does not hold a rhythm with these settings (try `cpg tune --config {}`)",
+            config.display(),
+            config.display()
+        ),
+        other => other?,
+    };
     let pv = &model.provenance;
     let best = pv.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    if best.is_nan() || best > UNSTABLE_SCORE {
+        let msg = format!(
+            "{}: the best validation score is {best:.4} (penalty {:.2e}), worse than {UNSTABLE_SCORE} (a flat line at the mean scores 1): the free run does not follow the teacher",
+            config.display(),
+            pv.chosen_penalty
+        );
+        if !allow_unstable {
+            bail!(
+                "{msg}. Nothing was written; `--allow-unstable` writes the model anyway, `cpg tune --config {}` searches for settings that work",
+                config.display()
+            );
+        }
+        eprintln!("warning: {msg}; written anyway (--allow-unstable)");
+    }
+    write_output(&c.output.model, |w| Ok(w.write_all(&model.to_bytes()?)?))?;
     if cpg_lab::train::penalty_at_edge(&model) {
         eprintln!(
             "warning: the chosen penalty {:.2e} is at the edge of the grid; the best may lie beyond it",
             pv.chosen_penalty
         );
     }
-    println!(
+    eprintln!(
         "trained in {:.2} s: penalty {:.2e} (validation score {best:.4}, one-step training NMSE {:.2e}) → {}",
         start.elapsed().as_secs_f64(),
         pv.chosen_penalty,
         pv.train_nmse,
-        tidy(&c.output.model).display()
+        match &dest {
+            crate::output::Destination::Stdout => "standard output".into(),
+            _ => tidy(&c.output.model).display().to_string(),
+        }
     );
     Ok(())
 }
@@ -82,7 +110,14 @@ fn schedule(m: &TrainedCpg, values: Option<&str>, file: Option<&Path>) -> anyhow
         (Some(_), Some(_)) => bail!("give either --control or --control-file, not both"),
         (Some(v), None) => Ok(ControlSchedule::parse_values(v, &m.controls)?),
         (None, Some(f)) => {
-            let text = std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+            let bytes = cpg_mocap::read_bounded(f, cpg_mocap::MAX_INPUT_BYTES)?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                anyhow::anyhow!(
+                    "{}: not UTF-8 text (invalid byte at offset {})",
+                    f.display(),
+                    e.utf8_error().valid_up_to()
+                )
+            })?;
             Ok(ControlSchedule::parse_csv(&text, f, &m.controls)?)
         }
         (None, None) if m.controls.is_empty() => Ok(ControlSchedule::none()),
@@ -92,11 +127,32 @@ fn schedule(m: &TrainedCpg, values: Option<&str>, file: Option<&Path>) -> anyhow
     }
 }
 
-fn steps(seconds: f64, rate: f64) -> anyhow::Result<usize> {
-    if !(seconds.is_finite() && seconds > 0.0) {
-        bail!("--seconds {seconds}: expected a positive duration");
+/// A number as a message shows it: plain when of ordinary size, else in `e` notation.
+fn short_number(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
+}
+
+/// Longest run one command makes, seconds (a day).
+const MAX_SECONDS: f64 = 86_400.0;
+/// Most values one run holds in memory (1 GiB of f64).
+const MAX_VALUES: usize = 1 << 27;
+
+/// The steps of a run of `seconds` at `rate` Hz with `d` channels, bounded.
+fn steps(seconds: f64, rate: f64, d: usize) -> anyhow::Result<usize> {
+    if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
+        bail!("--seconds {}: expected a duration above 0 and at most {MAX_SECONDS} (one day)", short_number(seconds));
     }
-    Ok((seconds * rate).round() as usize)
+    let n = (seconds * rate).round() as usize;
+    if n == 0 {
+        bail!("--seconds {seconds} at {rate} Hz is less than one step");
+    }
+    if n.saturating_mul(d.max(1)) > MAX_VALUES {
+        bail!(
+            "--seconds {seconds}: {n} steps × {d} channels would hold {:.1} GiB; at most {MAX_VALUES} values (1 GiB) per run",
+            (n as f64 * d as f64 * 8.0) / (1u64 << 30) as f64
+        );
+    }
+    Ok(n)
 }
 
 /// The model's outputs in their own units, frame-major.
@@ -107,7 +163,34 @@ fn run_units(m: &TrainedCpg, controls: &ControlSchedule, n: usize) -> anyhow::Re
         let o = &m.outputs[k % d];
         *v = *v * o.std + o.mean;
     }
+    warn_out_of_range(m, &y);
     Ok(y)
+}
+
+/// How far beyond the teachers' range (as a share of its span) an output may
+/// go before `generate` and `hoap2` warn.
+const RANGE_MARGIN: f64 = 0.5;
+
+/// Warns, once per channel, when the output `y` (in the model's units,
+/// frame-major) leaves the range of the teacher cycles by more than
+/// [`RANGE_MARGIN`] of that range: a sign of an unstable model.
+fn warn_out_of_range(m: &TrainedCpg, y: &[f64]) {
+    let d = m.outputs.len();
+    for (k, o) in m.outputs.iter().enumerate() {
+        let taught = m.teachers.iter().flat_map(|t| t.cycle.iter().skip(k).step_by(d)).map(|z| z * o.std + o.mean);
+        let (lo, hi) = taught.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        let (min, max) =
+            y.iter().skip(k).step_by(d).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let margin = RANGE_MARGIN * (hi - lo);
+        if min < lo - margin || max > hi + margin {
+            eprintln!(
+                "warning: {} spans {min:.1} to {max:.1}{u}, beyond the training data's {lo:.1} to {hi:.1}{u} by more than {:.0} % of that range: the model may be unstable (`cpg evaluate` measures it)",
+                o.name,
+                RANGE_MARGIN * 100.0,
+                u = unit_suffix(&o.name).replace('_', " "),
+            );
+        }
+    }
 }
 
 fn unit_suffix(name: &str) -> &'static str {
@@ -126,13 +209,14 @@ pub fn generate(
 ) -> anyhow::Result<()> {
     let m = TrainedCpg::load(model)?;
     let rate = m.provenance.sample_rate_hz;
-    let n = steps(seconds, rate)?;
-    let controls = schedule(&m, control, control_file)?;
     let d = m.outputs.len();
+    let n = steps(seconds, rate, d)?;
+    let dest = check_writable(output)?;
+    let controls = schedule(&m, control, control_file)?;
     match format {
         "csv" => {
             let y = run_units(&m, &controls, n)?;
-            write_atomic(output, |w| {
+            write_output(output, |w| {
                 write!(w, "time_s")?;
                 for o in &m.outputs {
                     write!(w, ",{}{}", o.name, unit_suffix(&o.name))?;
@@ -168,11 +252,11 @@ pub fn generate(
             let y = run_units(&m, &controls, n)?;
             let motion = Motion::new(channels, y, rate)?;
             let text = write_amc(&sk, &motion)?;
-            write_atomic(output, |w| Ok(w.write_all(text.as_bytes())?))?;
+            write_output(output, |w| Ok(w.write_all(text.as_bytes())?))?;
         }
         other => bail!("--format {other}: expected csv or amc"),
     }
-    eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) to {}", output.display());
+    eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) to {}", dest.describe());
     Ok(())
 }
 
@@ -212,7 +296,11 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         );
     }
     let rate = m.provenance.sample_rate_hz;
-    let n = steps(a.seconds, rate)?;
+    let n = steps(a.seconds, rate, m.outputs.len())?;
+    if let Some(r) = a.rate_hz {
+        cpg_hoap2::JointTrajectory::check_rate(r, a.seconds, map.entries.len())?;
+    }
+    let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
     let y = run_units(&m, &controls, n)?;
     let mut t = map.apply(&robot, &names, &y, rate)?;
@@ -220,13 +308,13 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         t = t.resample(r).context("resampling")?;
     }
     let csv = t.to_csv();
-    write_atomic(a.output, |w| Ok(w.write_all(csv.as_bytes())?))?;
+    write_output(a.output, |w| Ok(w.write_all(csv.as_bytes())?))?;
     eprintln!(
         "wrote {} frames at {} Hz of {} HOAP-2 joints (rad) to {}",
         t.n_frames(),
         t.rate_hz,
         t.joints.len(),
-        a.output.display()
+        dest.describe()
     );
     eprintln!("{:<14} {:>9} {:>12} {:>10} {:>10}", "joint", "clamped", "max excess", "min (deg)", "max (deg)");
     for c in &t.clamps.joints {
@@ -267,8 +355,8 @@ pub fn evaluate(
             model.display()
         );
     }
-    let n = steps(seconds, rate)?;
     let d = m.outputs.len();
+    let n = steps(seconds, rate, d)?;
     // The settings judged: the one given, or every teacher's.
     let settings: Vec<(ControlSchedule, &cpg_reservoir::Teacher)> = match (control, control_file) {
         (None, None) => m.teachers.iter().map(|t| (ControlSchedule::Constant(t.controls.clone()), t)).collect(),
@@ -385,7 +473,13 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
     let base = Config::load(config)?;
     let stem = config.file_stem().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "config".into());
     let out = output.map(Path::to_owned).unwrap_or_else(|| config.with_file_name(format!("{stem}-tuned.toml")));
-    crate::output::check_writable(&out)?;
+    let dest = crate::output::check_writable(&out)?;
+    // The configuration may go to standard output: the table then goes to standard error.
+    let mut report: Box<dyn std::io::Write> = if dest == crate::output::Destination::Stdout {
+        Box::new(std::io::stderr())
+    } else {
+        Box::new(std::io::stdout())
+    };
     let start = Instant::now();
     eprintln!(
         "tuning {}: {} candidates and the starting configuration, {} seed(s) each, judged over {} s …",
@@ -397,17 +491,19 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
     let r = cpg_lab::tune::tune(&base, s, &Bar(std::sync::Mutex::new(None)))?;
     let minutes = start.elapsed().as_secs_f64() / 60.0;
     if json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        writeln!(report, "{}", serde_json::to_string_pretty(&r)?)?;
     } else {
-        println!(
+        writeln!(
+            report,
             "{:>4} {:>6} {:>9} {:>6} {:>8} {:>8} {:>7} {:>6} {:>7}  {:<20}",
             "cand", "passed", "cost", "range", "radius", "leak", "fb", "tnoise", "prefer", "validation"
-        );
+        )?;
         for c in r.candidates.iter().take(8) {
             let k = &c.knobs;
             let score =
                 if k.score == "nmse" { format!("nmse (noise {:.0e})", k.noise_variance) } else { "orbit".into() };
-            println!(
+            writeln!(
+                report,
                 "{:>4} {:>3}/{:<2} {:>9.2} {:>6.2} {:>8.3} {:>8.3} {:>7.3} {:>6.3} {:>7} {:<20}",
                 if c.index == 0 { "base".to_owned() } else { c.index.to_string() },
                 c.passed,
@@ -420,7 +516,7 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
                 k.teacher_noise,
                 k.prefer_larger_within,
                 score
-            );
+            )?;
         }
     }
     let best = r.best().context("no candidate")?;
@@ -441,7 +537,7 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
         out.display(),
         c.to_toml(dir)?
     );
-    write_atomic(&out, |w| Ok(w.write_all(text.as_bytes())?))?;
+    write_output(&out, |w| Ok(w.write_all(text.as_bytes())?))?;
     eprintln!(
         "{} candidates in {:.1} min ({:.1} per minute); the best passed on {} of {} seeds → {}",
         r.candidates.len(),
@@ -449,7 +545,11 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
         r.candidates.len() as f64 / minutes.max(1e-9),
         best.passed,
         best.seeds.len(),
-        tidy(&out).display()
+        if dest == crate::output::Destination::Stdout {
+            "standard output".into()
+        } else {
+            tidy(&out).display().to_string()
+        }
     );
     Ok(())
 }
