@@ -63,7 +63,7 @@ struct Outcome {
     failures: Vec<PathBuf>,
 }
 
-fn run_target(root: &Path, bin: &Path, target: &str, seconds: u64) -> anyhow::Result<Outcome> {
+fn run_target(root: &Path, bin: &Path, target: &str, seconds: u64, seed: Option<u64>) -> anyhow::Result<Outcome> {
     let work = root.join("target/fuzz");
     let corpus = work.join("corpus").join(target);
     let artifacts = work.join("artifacts").join(target);
@@ -75,7 +75,11 @@ fn run_target(root: &Path, bin: &Path, target: &str, seconds: u64) -> anyhow::Re
     }
     let log_path = logs.join(format!("{target}.log"));
     let log = std::fs::File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?;
-    let status = Command::new(bin)
+    let mut command = Command::new(bin);
+    if let Some(seed) = seed {
+        command.arg(format!("-seed={seed}"));
+    }
+    let status = command
         .arg(&corpus)
         .arg(root.join("fuzz/seeds").join(target))
         .arg(format!("-max_total_time={seconds}"))
@@ -126,8 +130,9 @@ fn tally(root: &Path, target: &str, executions: u64, seconds: u64) -> anyhow::Re
         .sum())
 }
 
-/// Builds the targets and runs each of `targets` (all when empty) for `seconds`.
-pub fn run(seconds: u64, targets: &[String]) -> anyhow::Result<()> {
+/// Builds the targets and runs each of `targets` (all when empty) for
+/// `seconds`, with libFuzzer's random seed or the one given.
+pub fn run(seconds: u64, targets: &[String], seed: Option<u64>) -> anyhow::Result<()> {
     let root = crate::root();
     for t in targets {
         if !TARGETS.contains(&t.as_str()) {
@@ -141,7 +146,7 @@ pub fn run(seconds: u64, targets: &[String]) -> anyhow::Result<()> {
     let mut failed = Vec::new();
     for t in chosen {
         eprintln!("fuzzing {t} for {seconds} s …");
-        let o = run_target(&root, &bin_dir.join(t), t, seconds)?;
+        let o = run_target(&root, &bin_dir.join(t), t, seconds, seed)?;
         let total = tally(&root, t, o.executions, seconds)?;
         if o.failures.is_empty() {
             summary.push(format!(

@@ -73,6 +73,9 @@ enum Command {
         /// Seconds per target.
         #[arg(long, default_value_t = 60)]
         seconds: u64,
+        /// libFuzzer's seed (default: a new one each run).
+        #[arg(long)]
+        seed: Option<u64>,
         /// Targets to run (default: all): asf, amc, config, model, control_csv.
         targets: Vec<String>,
     },
@@ -84,7 +87,7 @@ fn main() -> std::process::ExitCode {
         Command::FetchData(args) => fetch::run(&args),
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
-        Command::Fuzz { seconds, targets } => fuzz::run(seconds, &targets),
+        Command::Fuzz { seconds, seed, targets } => fuzz::run(seconds, &targets, seed),
         Command::Bench { vs_reservoirpy } => bench::run(vs_reservoirpy),
         Command::Train(args) => train::run(&args),
         Command::Evaluate(args) => report::run(&args),
