@@ -100,11 +100,17 @@ enum Command {
         #[arg(long, short)]
         output: PathBuf,
     },
-    /// Run a trained CPG and write HOAP-2 joint commands (CSV: time_s, then the joints in rad).
+    /// Run a trained CPG and write HOAP-2 joint commands a controller can stream.
     ///
-    /// Channels are mapped to joints by a TSV map, clamped to the URDF's
-    /// position limits, and a table of how often and how far each joint hit
-    /// its limits is printed.
+    /// Channels are mapped to joints by a TSV map and clamped to the URDF's
+    /// position limits; the trajectory is resampled to --rate-hz by a natural
+    /// cubic spline (exactly seconds × rate rows) and kept within the URDF's
+    /// velocity limits and the --acceleration-rad-s2 bound by a limiter that
+    /// brakes in time. A table says, per joint, what each bound changed; a
+    /// joint limited in more than 5 % of its frames is a warning (--strict: an
+    /// error). Output: CSV (time_s, then every joint's angle in rad, then its
+    /// velocity in rad/s, then its acceleration in rad/s²), or a
+    /// trajectory_msgs/JointTrajectory as JSON or YAML.
     Hoap2 {
         #[command(flatten)]
         run: RunArgs,
@@ -120,10 +126,62 @@ enum Command {
         /// The channel-to-joint map.
         #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
         map: PathBuf,
-        /// Output CSV (`-`: standard output; a file is written atomically, a
+        /// Output file (`-`: standard output; a file is written atomically, a
         /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
+        /// csv (positions, velocities, accelerations), json or yaml (a
+        /// trajectory_msgs/JointTrajectory) [default: from the extension, else csv].
+        #[arg(long)]
+        format: Option<String>,
+        /// The acceleration bound every joint is kept within, rad/s² (the
+        /// HOAP-2 documents give none; this default is ours).
+        #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
+        acceleration_rad_s2: f64,
+        /// Fail, writing nothing, when a joint is limited in more than 5 % of
+        /// its frames (without it, a warning).
+        #[arg(long)]
+        strict: bool,
+    },
+    /// Run a CPG as a live control loop: controls in, one line of commands per tick.
+    ///
+    /// Control values may arrive at any time, one setting per line: numbers in
+    /// the model's control order (`1, 0`) or name=value pairs (`u_run=1`).
+    /// Each tick writes `time_s` and one value per channel (degrees), or with
+    /// --robot one angle per joint (radians, within the URDF's position and
+    /// velocity limits and the acceleration bound). The model steps at its own
+    /// rate; ticks between its steps are interpolated. Ticks are paced by a
+    /// monotonic clock; at the end the lateness of the ticks (mean, median,
+    /// 99th percentile, worst) and the missed deadlines go to standard error.
+    /// The loop allocates nothing.
+    Stream {
+        /// The model file.
+        #[arg(long, short)]
+        model: PathBuf,
+        /// Ticks per second [default: the model's rate].
+        #[arg(long)]
+        rate_hz: Option<f64>,
+        /// Stop after this long [default: when standard input closes].
+        #[arg(long)]
+        seconds: Option<f64>,
+        /// The control values to start with [default: the first teacher's].
+        #[arg(long)]
+        control: Option<String>,
+        /// Map onto a robot's joints: hoap2 (with --urdf and --map).
+        #[arg(long)]
+        robot: Option<String>,
+        /// The robot description (with --robot).
+        #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
+        urdf: PathBuf,
+        /// The channel-to-joint map (with --robot).
+        #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
+        map: PathBuf,
+        /// The acceleration bound of every joint with --robot, rad/s².
+        #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
+        acceleration_rad_s2: f64,
+        /// Run as fast as possible instead of in real time (for tests and files).
+        #[arg(long)]
+        no_pacing: bool,
     },
     /// Search for settings that keep the rhythm, starting from a configuration.
     ///
@@ -217,16 +275,40 @@ fn main() -> ExitCode {
             skeleton.as_deref(),
             &output,
         ),
-        Command::Hoap2 { run, seconds, rate_hz, urdf, map, output } => commands::hoap2(commands::Hoap2 {
-            model: &run.model,
-            seconds,
-            control: run.control.as_deref(),
-            control_file: run.control_file.as_deref(),
-            rate_hz,
-            urdf: &urdf,
-            map: &map,
-            output: &output,
-        }),
+        Command::Hoap2 { run, seconds, rate_hz, urdf, map, output, format, acceleration_rad_s2, strict } => {
+            commands::hoap2(commands::Hoap2 {
+                model: &run.model,
+                seconds,
+                control: run.control.as_deref(),
+                control_file: run.control_file.as_deref(),
+                rate_hz,
+                urdf: &urdf,
+                map: &map,
+                output: &output,
+                format: format.as_deref(),
+                acceleration_rad_s2,
+                strict,
+            })
+        }
+        Command::Stream { model, rate_hz, seconds, control, robot, urdf, map, acceleration_rad_s2, no_pacing } => {
+            match robot.as_deref() {
+                None | Some("hoap2") => {}
+                Some(other) => {
+                    eprintln!("error: --robot {other}: the robot known is hoap2");
+                    return ExitCode::from(2);
+                }
+            }
+            let (urdf, map) = (commands::asset(&urdf), commands::asset(&map));
+            commands::stream(commands::Stream {
+                model: &model,
+                rate_hz,
+                seconds,
+                control: control.as_deref(),
+                robot: robot.is_some().then_some((urdf.as_path(), map.as_path())),
+                acceleration_rad_s2,
+                pacing: !no_pacing,
+            })
+        }
         Command::Tune { config, budget, seeds, seconds, search_seed, output, json } => {
             let s =
                 cpg_lab::tune::TuneSettings { budget, seeds, long_run_s: seconds, search_seed, ..Default::default() };

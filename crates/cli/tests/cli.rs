@@ -162,14 +162,15 @@ fn example_config_trains_generates_and_drives_hoap2() {
     let text = std::fs::read_to_string(&joints).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     let header: Vec<&str> = lines[0].split(',').collect();
-    assert_eq!(header.len(), 23);
+    // time_s, then the 22 joints' angles (rad), velocities (rad/s) and accelerations (rad/s²).
+    assert_eq!(header.len(), 1 + 3 * 22);
     assert_eq!(header[0], "time_s");
-    assert!(header[1..].iter().all(|h| h.ends_with("_rad")));
-    // 2 s at 120 Hz is 240 frames spanning 239/120 s; at 1 kHz that is 1992 samples.
-    assert_eq!(lines.len() - 1, 1992);
+    assert!(header[1..23].iter().all(|h| h.ends_with("_rad")));
+    // 2 s at 1 kHz is 2000 rows.
+    assert_eq!(lines.len() - 1, 2000);
     let robot = cpg_hoap2::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
     for l in &lines[1..] {
-        for (h, v) in header[1..].iter().zip(l.split(',').skip(1)) {
+        for (h, v) in header[1..23].iter().zip(l.split(',').skip(1)) {
             let j = robot.joint(h.trim_end_matches("_rad")).unwrap();
             let v: f64 = v.parse().unwrap();
             assert!(v >= j.lower_rad - 1e-6 && v <= j.upper_rad + 1e-6, "{h} = {v} outside its limits");

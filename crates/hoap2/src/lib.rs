@@ -7,16 +7,39 @@
 //!   has the robot's 25 joints.
 //! - [`ChannelMap`]: a data file (`assets/hoap2/cmu35_to_hoap2.tsv`) mapping
 //!   named channels in degrees to joints: `q_rad = (sign·value_deg + offset_deg)·π/180`.
-//! - [`JointTrajectory`]: mapped, clamped joint angles over time, with a
-//!   [`ClampReport`] of how often and how far each joint hit its limits,
-//!   resampling to another rate and CSV export.
+//! - [`JointTrajectory`]: mapped joint angles over time with their velocities
+//!   and accelerations, resampled to any rate by a natural cubic spline
+//!   ([`natural_spline`]), kept within the URDF's position and velocity
+//!   limits and a stated acceleration bound by a [`Limiter`], with a
+//!   [`ClampReport`] of what each bound changed; CSV and
+//!   `trajectory_msgs/JointTrajectory`-shaped JSON or YAML export.
+//! - [`Robot::link_poses`], [`Robot::path`]: forward kinematics from the URDF
+//!   (nalgebra), and [`gait`]: the feet's excursion and lift, the period and
+//!   the phase between the legs.
+//! - [`MapPlan`]: the map resolved against a robot and a channel list, for
+//!   mapping one frame at a time without allocating (live control loops).
 //!
 //! The crate takes plain channel names and values, so it does not depend on
 //! the mocap or reservoir crates.
 
+mod kinematics;
+mod smooth;
+
+pub use kinematics::{Gait, SOLE_IN_ANKLE_M, gait};
+pub use smooth::{Bounds, LimitCounts, Limiter, natural_spline};
+
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+
+/// The acceleration bound used when none is given, rad/s². The HOAP-2
+/// documentation gives a speed limit (5 rad/s) but no acceleration limit;
+/// this bound is ours: twenty times the speed limit per second, which a
+/// 1 Hz gait of ±0.5 rad (peak acceleration about 20 rad/s²) stays far within.
+pub const DEFAULT_ACCELERATION_RAD_S2: f64 = 100.0;
+
+/// Share of frames above which a limited joint is worth a warning (`cpg hoap2 --strict` makes it an error).
+pub const WARN_LIMITED_SHARE: f64 = 0.05;
 
 /// What can go wrong.
 #[derive(Debug, thiserror::Error)]
@@ -284,8 +307,25 @@ impl ChannelMap {
         self.entries.iter().map(|e| e.channel.as_str()).collect()
     }
 
+    /// Resolves the map against `robot` and the channels of an input: which
+    /// column feeds each joint, and the joints' limits.
+    pub fn plan(&self, robot: &Robot, channels: &[String]) -> Result<MapPlan> {
+        let mut cols = Vec::new();
+        let mut joints = Vec::new();
+        for e in &self.entries {
+            joints.push(robot.joint(&e.joint)?.clone());
+            cols.push(channels.iter().position(|c| *c == e.channel).ok_or_else(|| Error::MissingChannel {
+                name: e.channel.clone(),
+                joint: e.joint.clone(),
+                available: channels.to_vec(),
+            })?);
+        }
+        Ok(MapPlan { joints, cols, entries: self.entries.clone(), n_channels: channels.len() })
+    }
+
     /// Maps frames of named channels (degrees, frame-major) to joint angles
-    /// (radians), clamped to `robot`'s limits.
+    /// (radians), clamped to `robot`'s position limits; velocities and
+    /// accelerations are those of the natural cubic spline through them.
     pub fn apply(
         &self,
         robot: &Robot,
@@ -306,47 +346,62 @@ impl ChannelMap {
         if let Some(k) = values_deg.iter().position(|v| !v.is_finite()) {
             return Err(Error::Input(format!("value {k} (channel '{}') is not finite", channels[k % channels.len()])));
         }
-        let mut cols = Vec::new();
-        let mut limits = Vec::new();
-        for e in &self.entries {
-            let j = robot.joint(&e.joint)?;
-            let col = channels.iter().position(|c| *c == e.channel).ok_or_else(|| Error::MissingChannel {
-                name: e.channel.clone(),
-                joint: e.joint.clone(),
-                available: channels.to_vec(),
-            })?;
-            cols.push(col);
-            limits.push((j.lower_rad, j.upper_rad));
-        }
+        let plan = self.plan(robot, channels)?;
         let n_frames = values_deg.len() / channels.len();
-        let mut values_rad = Vec::with_capacity(n_frames * self.entries.len());
+        let d = plan.joints.len();
+        let mut values_rad = vec![0.0; n_frames * d];
         let mut report: Vec<JointClamp> =
-            self.entries.iter().map(|e| JointClamp { joint: e.joint.clone(), ..Default::default() }).collect();
+            plan.joints.iter().map(|j| JointClamp { joint: j.name.clone(), n_frames, ..Default::default() }).collect();
         for f in 0..n_frames {
             let row = &values_deg[f * channels.len()..(f + 1) * channels.len()];
-            for (k, e) in self.entries.iter().enumerate() {
-                let q = (e.sign * row[cols[k]] + e.offset_deg) * PI / 180.0;
-                let (lo, hi) = limits[k];
-                let c = q.clamp(lo, hi);
-                let r = &mut report[k];
-                r.min_rad = if f == 0 { q } else { r.min_rad.min(q) };
-                r.max_rad = if f == 0 { q } else { r.max_rad.max(q) };
-                if c != q {
+            let out = &mut values_rad[f * d..(f + 1) * d];
+            plan.frame(row, out);
+            for ((q, j), r) in out.iter_mut().zip(&plan.joints).zip(&mut report) {
+                r.min_rad = if f == 0 { *q } else { r.min_rad.min(*q) };
+                r.max_rad = if f == 0 { *q } else { r.max_rad.max(*q) };
+                let c = q.clamp(j.lower_rad, j.upper_rad);
+                if c != *q {
                     r.n_clamped += 1;
-                    r.max_excess_rad = r.max_excess_rad.max((q - c).abs());
+                    r.max_excess_rad = r.max_excess_rad.max((*q - c).abs());
                 }
-                values_rad.push(c);
+                *q = c;
             }
         }
-        for r in &mut report {
-            r.n_frames = n_frames;
-        }
-        Ok(JointTrajectory {
-            joints: self.entries.iter().map(|e| e.joint.clone()).collect(),
+        let mut t = JointTrajectory {
+            joints: plan.joints.iter().map(|j| j.name.clone()).collect(),
             values_rad,
+            velocities_rad_s: Vec::new(),
+            accelerations_rad_s2: Vec::new(),
             rate_hz,
             clamps: ClampReport { joints: report },
-        })
+        };
+        t.spline_derivatives();
+        Ok(t)
+    }
+}
+
+/// A [`ChannelMap`] resolved against a robot and an input's channels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapPlan {
+    /// The joints fed, in map order, with their limits.
+    pub joints: Vec<Joint>,
+    cols: Vec<usize>,
+    entries: Vec<MapEntry>,
+    n_channels: usize,
+}
+
+impl MapPlan {
+    /// Maps one frame of channel values (degrees, in the input's channel
+    /// order) to joint angles (radians, not clamped) in `out`. Allocates nothing.
+    ///
+    /// # Panics
+    /// When `row` or `out` has the wrong length.
+    pub fn frame(&self, row_deg: &[f64], out_rad: &mut [f64]) {
+        assert_eq!(row_deg.len(), self.n_channels, "one value per input channel");
+        assert_eq!(out_rad.len(), self.joints.len(), "one angle per joint");
+        for ((o, e), &c) in out_rad.iter_mut().zip(&self.entries).zip(&self.cols) {
+            *o = (e.sign * row_deg[c] + e.offset_deg) * PI / 180.0;
+        }
     }
 }
 
@@ -365,6 +420,24 @@ pub struct JointClamp {
     pub min_rad: f64,
     /// Largest mapped angle before clamping, radians.
     pub max_rad: f64,
+    /// Frames held back by the velocity limit (after [`JointTrajectory::limit`]).
+    pub n_velocity_limited: usize,
+    /// Frames held back by the acceleration bound (after [`JointTrajectory::limit`]).
+    pub n_acceleration_limited: usize,
+    /// Fastest speed asked for before limiting, rad/s.
+    pub max_velocity_rad_s: f64,
+    /// Largest acceleration asked for before limiting, rad/s².
+    pub max_acceleration_rad_s2: f64,
+    /// Largest distance between the angle asked for and the one commanded, radians.
+    pub max_lag_rad: f64,
+}
+
+impl JointClamp {
+    /// The largest share of frames that one bound (position, velocity or acceleration) changed.
+    pub fn limited_share(&self) -> f64 {
+        let n = self.n_clamped.max(self.n_velocity_limited).max(self.n_acceleration_limited);
+        n as f64 / self.n_frames.max(1) as f64
+    }
 }
 
 /// Clamping statistics of a mapping, per joint.
@@ -374,16 +447,28 @@ pub struct ClampReport {
     pub joints: Vec<JointClamp>,
 }
 
-/// Joint angles over time, in radians, frame-major, within the joint limits.
+impl ClampReport {
+    /// The joints that some bound changed in more than `share` of their frames.
+    pub fn over(&self, share: f64) -> Vec<&JointClamp> {
+        self.joints.iter().filter(|j| j.limited_share() > share).collect()
+    }
+}
+
+/// Joint angles over time, in radians, frame-major, within the joint
+/// limits, with their velocities and accelerations.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointTrajectory {
     /// Joint names (columns).
     pub joints: Vec<String>,
     /// `frames × joints` angles, radians.
     pub values_rad: Vec<f64>,
+    /// `frames × joints` velocities, rad/s.
+    pub velocities_rad_s: Vec<f64>,
+    /// `frames × joints` accelerations, rad/s².
+    pub accelerations_rad_s2: Vec<f64>,
     /// Sample rate, Hz.
     pub rate_hz: f64,
-    /// How often each joint was clamped.
+    /// What each bound changed, per joint.
     pub clamps: ClampReport,
 }
 
@@ -393,31 +478,103 @@ impl JointTrajectory {
         self.values_rad.len() / self.joints.len().max(1)
     }
 
-    /// Resamples to `rate_hz` by linear interpolation over the same duration
-    /// (the last output frame is at or before the last input frame).
-    pub fn resample(&self, rate_hz: f64) -> Result<JointTrajectory> {
+    /// One joint's column.
+    fn column(values: &[f64], d: usize, j: usize) -> Vec<f64> {
+        values.iter().skip(j).step_by(d).copied().collect()
+    }
+
+    /// Velocities and accelerations of the natural cubic spline through the positions.
+    fn spline_derivatives(&mut self) {
+        let (n, d) = (self.n_frames(), self.joints.len());
+        self.velocities_rad_s = vec![0.0; n * d];
+        self.accelerations_rad_s2 = vec![0.0; n * d];
+        for j in 0..d {
+            let [_, v, a] =
+                natural_spline(&JointTrajectory::column(&self.values_rad, d, j), self.rate_hz, self.rate_hz, n);
+            for f in 0..n {
+                self.velocities_rad_s[f * d + j] = v[f];
+                self.accelerations_rad_s2[f * d + j] = a[f];
+            }
+        }
+    }
+
+    /// Resamples to exactly `n_out` frames at `rate_hz` by a natural cubic
+    /// spline per joint (frames past the input's end hold its last value), then
+    /// clamps the positions again to `robot`'s limits, where the spline may
+    /// overshoot a clamped stretch.
+    pub fn resample(&self, robot: &Robot, rate_hz: f64, n_out: usize) -> Result<JointTrajectory> {
         let (n_in, d) = (self.n_frames(), self.joints.len());
         if n_in == 0 {
             return Err(Error::Input("empty trajectory".into()));
         }
-        let duration_s = (n_in - 1) as f64 / self.rate_hz;
-        let n_out = JointTrajectory::check_rate(rate_hz, duration_s, d)?;
-        let mut values_rad = Vec::with_capacity(n_out * d);
-        for k in 0..n_out {
-            let pos = k as f64 / rate_hz * self.rate_hz;
-            let i0 = (pos.floor() as usize).min(n_in - 1);
-            let i1 = (i0 + 1).min(n_in - 1);
-            let t = pos - i0 as f64;
-            for j in 0..d {
-                let (a, b) = (self.values_rad[i0 * d + j], self.values_rad[i1 * d + j]);
-                values_rad.push(a + t * (b - a));
+        let duration_s = n_out as f64 / rate_hz;
+        JointTrajectory::check_rate(rate_hz, duration_s, d)?;
+        let mut t = JointTrajectory {
+            joints: self.joints.clone(),
+            values_rad: vec![0.0; n_out * d],
+            velocities_rad_s: vec![0.0; n_out * d],
+            accelerations_rad_s2: vec![0.0; n_out * d],
+            rate_hz,
+            clamps: self.clamps.clone(),
+        };
+        for (j, name) in self.joints.iter().enumerate() {
+            let limits = robot.joint(name)?;
+            let [p, v, a] =
+                natural_spline(&JointTrajectory::column(&self.values_rad, d, j), self.rate_hz, rate_hz, n_out);
+            let r = &mut t.clamps.joints[j];
+            r.n_frames = n_out;
+            r.n_clamped = (r.n_clamped as f64 * n_out as f64 / n_in as f64).round() as usize;
+            for f in 0..n_out {
+                let q = p[f].clamp(limits.lower_rad, limits.upper_rad);
+                t.values_rad[f * d + j] = q;
+                t.velocities_rad_s[f * d + j] = if q == p[f] { v[f] } else { 0.0 };
+                t.accelerations_rad_s2[f * d + j] = if q == p[f] { a[f] } else { 0.0 };
             }
         }
-        Ok(JointTrajectory { joints: self.joints.clone(), values_rad, rate_hz, clamps: self.clamps.clone() })
+        Ok(t)
+    }
+
+    /// Keeps every joint within its position and velocity limits from
+    /// `robot` and within `acceleration_rad_s2`, by following the trajectory
+    /// with a [`Limiter`] per joint; the velocities and accelerations become
+    /// the commanded ones, and the report says what each bound changed.
+    pub fn limit(&self, robot: &Robot, acceleration_rad_s2: f64) -> Result<JointTrajectory> {
+        if !(acceleration_rad_s2.is_finite() && acceleration_rad_s2 > 0.0) {
+            return Err(Error::Input(format!(
+                "acceleration bound {acceleration_rad_s2} rad/s²: expected a positive number"
+            )));
+        }
+        let (n, d) = (self.n_frames(), self.joints.len());
+        let mut t = self.clone();
+        let dt = 1.0 / self.rate_hz;
+        for (j, name) in self.joints.iter().enumerate() {
+            let joint = robot.joint(name)?;
+            let b = Bounds {
+                lower_rad: joint.lower_rad,
+                upper_rad: joint.upper_rad,
+                velocity_rad_s: joint.velocity_rad_s,
+                acceleration_rad_s2,
+            };
+            let mut l = Limiter::new(b, dt);
+            let r = &mut t.clamps.joints[j];
+            for f in 0..n {
+                let k = f * d + j;
+                r.max_velocity_rad_s = r.max_velocity_rad_s.max(self.velocities_rad_s[k].abs());
+                r.max_acceleration_rad_s2 = r.max_acceleration_rad_s2.max(self.accelerations_rad_s2[k].abs());
+                t.values_rad[k] = l.step(self.values_rad[k]);
+                let (_, v, a) = l.state();
+                t.velocities_rad_s[k] = v;
+                t.accelerations_rad_s2[k] = if f == 0 { 0.0 } else { a };
+            }
+            r.n_velocity_limited = l.counts.velocity;
+            r.n_acceleration_limited = l.counts.acceleration;
+            r.max_lag_rad = l.counts.max_lag_rad;
+        }
+        Ok(t)
     }
 
     /// Checks a resampling rate for `duration_s` of `d` joints and returns the
-    /// frames it gives: the rate within [`MIN_RATE_HZ`, `MAX_RATE_HZ`], at most
+    /// frames it gives (`duration_s × rate_hz`, rounded; 30 s at 1 kHz is 30,000): the rate within [`MIN_RATE_HZ`, `MAX_RATE_HZ`], at most
     /// [`MAX_VALUES`] values.
     pub fn check_rate(rate_hz: f64, duration_s: f64, d: usize) -> Result<usize> {
         if !(rate_hz.is_finite() && (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&rate_hz)) {
@@ -426,7 +583,7 @@ impl JointTrajectory {
                 short_number(rate_hz)
             )));
         }
-        let n_out = (duration_s.max(0.0) * rate_hz + 1e-9).floor() + 1.0;
+        let n_out = (duration_s.max(0.0) * rate_hz).round().max(1.0);
         if n_out * d.max(1) as f64 > MAX_VALUES as f64 {
             return Err(Error::Input(format!(
                 "{duration_s:.1} s at {rate_hz} Hz × {d} joints is {:.3e} values; at most {MAX_VALUES} (1 GiB)",
@@ -436,20 +593,78 @@ impl JointTrajectory {
         Ok(n_out as usize)
     }
 
-    /// CSV text: `time_s`, then one column per joint in radians (`<joint>_rad`).
+    /// CSV text: `time_s`, then per joint its angle (`<joint>_rad`), then
+    /// per joint its velocity (`<joint>_rad_s`), then its acceleration (`<joint>_rad_s2`).
     pub fn to_csv(&self) -> String {
         let mut out = String::from("time_s");
-        for j in &self.joints {
-            let _ = write!(out, ",{j}_rad");
+        for suffix in ["rad", "rad_s", "rad_s2"] {
+            for j in &self.joints {
+                let _ = write!(out, ",{j}_{suffix}");
+            }
         }
         out.push('\n');
         let d = self.joints.len();
         for f in 0..self.n_frames() {
             let _ = write!(out, "{:.6}", f as f64 / self.rate_hz);
-            for v in &self.values_rad[f * d..(f + 1) * d] {
-                let _ = write!(out, ",{v:.6}");
+            for values in [&self.values_rad, &self.velocities_rad_s, &self.accelerations_rad_s2] {
+                for v in &values[f * d..(f + 1) * d] {
+                    let _ = write!(out, ",{v:.6}");
+                }
             }
             out.push('\n');
+        }
+        out
+    }
+
+    /// `time_from_start` of frame `f` as ROS writes a duration: whole seconds and nanoseconds.
+    fn stamp(&self, f: usize) -> (u64, u32) {
+        let ns = (f as f64 / self.rate_hz * 1e9).round() as u64;
+        (ns / 1_000_000_000, (ns % 1_000_000_000) as u32)
+    }
+
+    fn row(values: &[f64], f: usize, d: usize) -> String {
+        values[f * d..(f + 1) * d].iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>().join(", ")
+    }
+
+    /// A `trajectory_msgs/JointTrajectory` as JSON: `joint_names`, then
+    /// `points` with `positions`, `velocities`, `accelerations` and
+    /// `time_from_start` (`sec`, `nanosec`), the field names of ROS 2.
+    pub fn to_ros_json(&self) -> String {
+        let d = self.joints.len();
+        let names: Vec<String> = self.joints.iter().map(|j| format!("\"{j}\"")).collect();
+        let mut out = format!("{{\n  \"joint_names\": [{}],\n  \"points\": [\n", names.join(", "));
+        for f in 0..self.n_frames() {
+            let (sec, nanosec) = self.stamp(f);
+            let _ = writeln!(
+                out,
+                "    {{\"positions\": [{}], \"velocities\": [{}], \"accelerations\": [{}], \"time_from_start\": {{\"sec\": {sec}, \"nanosec\": {nanosec}}}}}{}",
+                JointTrajectory::row(&self.values_rad, f, d),
+                JointTrajectory::row(&self.velocities_rad_s, f, d),
+                JointTrajectory::row(&self.accelerations_rad_s2, f, d),
+                if f + 1 < self.n_frames() { "," } else { "" }
+            );
+        }
+        out.push_str("  ]\n}\n");
+        out
+    }
+
+    /// The same message as YAML (as `ros2 topic echo` prints it, flow sequences for the values).
+    pub fn to_ros_yaml(&self) -> String {
+        let d = self.joints.len();
+        let mut out = String::from("joint_names:\n");
+        for j in &self.joints {
+            let _ = writeln!(out, "- {j}");
+        }
+        out.push_str("points:\n");
+        for f in 0..self.n_frames() {
+            let (sec, nanosec) = self.stamp(f);
+            let _ = write!(
+                out,
+                "- positions: [{}]\n  velocities: [{}]\n  accelerations: [{}]\n  time_from_start:\n    sec: {sec}\n    nanosec: {nanosec}\n",
+                JointTrajectory::row(&self.values_rad, f, d),
+                JointTrajectory::row(&self.velocities_rad_s, f, d),
+                JointTrajectory::row(&self.accelerations_rad_s2, f, d),
+            );
         }
         out
     }

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cpg_hoap2::{ChannelMap, Error, Robot};
+use cpg_hoap2::{ChannelMap, Error, JointTrajectory, Robot};
 use cpg_mocap::data::{Subject, find};
 use cpg_mocap::{Motion, Skeleton};
 
@@ -104,15 +104,85 @@ fn walking_trial_maps_within_limits_with_a_clamp_report() {
         (knee.min_rad.to_degrees() - 11.0).abs() < 2.0 && (knee.max_rad.to_degrees() - 71.0).abs() < 2.0,
         "{knee:?}"
     );
-    // Resampled to 1 kHz: same span, endpoints kept.
-    let k = t.resample(1000.0).unwrap();
-    assert_eq!(k.n_frames(), (357.0 / 120.0 * 1000.0f64).floor() as usize + 1);
+    // Resampled to 1 kHz for the trial's 358 / 120 s: exactly that many rows, the knots kept.
+    let n_out = JointTrajectory::check_rate(1000.0, 358.0 / 120.0, 22).unwrap();
+    assert_eq!(n_out, 2983);
+    let k = t.resample(&r, 1000.0, n_out).unwrap();
+    assert_eq!(k.n_frames(), 2983);
     assert_eq!(&k.values_rad[..22], &t.values_rad[..22]);
-    let csv = k.to_csv();
+    let frame_at = |f120: usize| &k.values_rad[f120 * 25 / 3 * 22..][..22];
+    for (a, b) in frame_at(3).iter().zip(&t.values_rad[3 * 22..4 * 22]) {
+        assert!((a - b).abs() < 1e-9, "knot kept");
+    }
+    // Smooth: from one millisecond to the next the spline's acceleration changes by a
+    // tenth or less of what linear interpolation gives at a knot (its velocity jumps there,
+    // by Δ²q·120 rad/s within one 1-ms step).
+    let knee = k.joints.iter().position(|j| j == "lleg_joint_4").unwrap();
+    let acc: Vec<f64> = k.accelerations_rad_s2.iter().skip(knee).step_by(22).copied().collect();
+    let jump = acc.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    let q: Vec<f64> = t.values_rad.iter().skip(knee).step_by(22).copied().collect();
+    let linear = q.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs() * 120.0 * 1000.0).fold(0.0, f64::max);
+    assert!(jump < linear / 10.0, "knee: the spline's acceleration steps by {jump} rad/s², linear's by {linear}");
+    // Limited: every joint within position, velocity (the URDF's 5 rad/s) and the stated acceleration bound.
+    let l = k.limit(&r, cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2).unwrap();
+    for (j, name) in l.joints.iter().enumerate() {
+        let joint = r.joint(name).unwrap();
+        for f in 0..l.n_frames() {
+            let i = f * 22 + j;
+            assert!((joint.lower_rad..=joint.upper_rad).contains(&l.values_rad[i]), "{name}");
+            assert!(l.velocities_rad_s[i].abs() <= joint.velocity_rad_s + 1e-9, "{name} frame {f}");
+            assert!(
+                l.accelerations_rad_s2[i].abs() <= cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 + 1e-6,
+                "{name} frame {f}: {:?}",
+                (f.saturating_sub(3)..f + 2)
+                    .map(|g| (
+                        k.values_rad[g * 22 + j],
+                        l.values_rad[g * 22 + j],
+                        l.velocities_rad_s[g * 22 + j],
+                        l.accelerations_rad_s2[g * 22 + j]
+                    ))
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+    let c = &l.clamps.joints[knee];
+    assert!(c.max_velocity_rad_s > 1.0 && c.max_acceleration_rad_s2 > 1.0, "what was asked is reported: {c:?}");
+    let csv = l.to_csv();
     let header = csv.lines().next().unwrap();
     assert!(header.starts_with("time_s,lleg_joint_1_rad,"));
-    assert_eq!(header.split(',').count(), 23);
-    assert_eq!(csv.lines().count(), 1 + k.n_frames());
+    assert!(header.contains(",lleg_joint_1_rad_s,") && header.ends_with("_rad_s2"));
+    assert_eq!(header.split(',').count(), 1 + 3 * 22);
+    assert_eq!(csv.lines().count(), 1 + l.n_frames());
+    // The ROS message shapes.
+    let json = l.to_ros_json();
+    assert!(
+        json.contains("\"joint_names\": [\"lleg_joint_1\"")
+            && json.contains("\"time_from_start\": {\"sec\": 2, \"nanosec\": 982000000}")
+    );
+    assert_eq!(json.matches("\"positions\"").count(), 2983);
+    let yaml = l.to_ros_yaml();
+    assert!(
+        yaml.starts_with("joint_names:\n- lleg_joint_1\n")
+            && yaml.contains("  time_from_start:\n    sec: 0\n    nanosec: 1000000\n")
+    );
+}
+
+/// A frame at a time, without allocating: the same angles as the whole-trajectory mapping.
+#[test]
+fn a_plan_maps_one_frame_as_apply_does() {
+    let r = robot();
+    let m = ChannelMap::load(&asset("cmu35_to_hoap2.tsv")).unwrap();
+    let sk = Skeleton::from_file(find(Subject::S35, "35.asf").unwrap()).unwrap();
+    let motion = Motion::from_amc_file(find(Subject::S35, "35_01.amc").unwrap(), &sk, 120.0).unwrap();
+    let names = motion.channel_names();
+    let t = m.apply(&r, &names, motion.values(), 120.0).unwrap();
+    let plan = m.plan(&r, &names).unwrap();
+    let mut out = vec![0.0; 22];
+    let d = names.len();
+    plan.frame(&motion.values()[10 * d..11 * d], &mut out);
+    for (j, (q, joint)) in out.iter().zip(&plan.joints).enumerate() {
+        assert_eq!(q.clamp(joint.lower_rad, joint.upper_rad), t.values_rad[10 * 22 + j]);
+    }
 }
 
 #[test]
@@ -133,4 +203,34 @@ fn bad_map_files_and_inputs_are_located_errors() {
     assert!(matches!(m.apply(&r, &["y.rx".into()], &[1.0], 120.0), Err(Error::MissingChannel { .. })));
     assert!(matches!(m.apply(&r, &["x.rx".into()], &[f64::NAN], 120.0), Err(Error::Input(_))));
     assert!(matches!(Robot::from_urdf_str("<robot", Path::new("x.urdf")), Err(Error::Urdf { .. })));
+}
+
+/// Forward kinematics against the reference geometry, and the gait of the mapped 35_01 walk.
+#[test]
+fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
+    let r = robot();
+    let none: Vec<String> = Vec::new();
+    let poses = r.link_poses(&none, &[]).unwrap();
+    let ankle = r.joints.iter().position(|j| j.name == "lleg_joint_6").unwrap();
+    let sole = poses[ankle] * nalgebra::Point3::from(cpg_hoap2::SOLE_IN_ANKLE_M);
+    // Zero pose: the hip 0.034 m behind, 0.039 m to the side of and 0.055 m below the trunk
+    // origin, thigh and shank 0.1 m each, the sole 0.033 m below the ankle and 0.0112 m forward.
+    assert!((sole.x - (-0.034 + 0.0112)).abs() < 1e-9 && (sole.y - 0.039).abs() < 1e-9, "{sole}");
+    assert!((sole.z - (-0.055 - 0.2 - 0.033)).abs() < 1e-9, "{sole}");
+    // Knee flexed 90° (with the hip straight): the ankle comes up to knee height and moves back.
+    let names = vec!["lleg_joint_4".to_owned()];
+    let p = r.link_poses(&names, &[std::f64::consts::FRAC_PI_2]).unwrap()[ankle].translation.vector;
+    assert!((p.z - (-0.155)).abs() < 1e-9 && (p.x - (-0.134)).abs() < 1e-9, "{p}");
+
+    let m = ChannelMap::load(&asset("cmu35_to_hoap2.tsv")).unwrap();
+    let sk = Skeleton::from_file(find(Subject::S35, "35.asf").unwrap()).unwrap();
+    let motion = Motion::from_amc_file(find(Subject::S35, "35_01.amc").unwrap(), &sk, 120.0).unwrap();
+    let t = m.apply(&r, &motion.channel_names(), motion.values(), 120.0).unwrap();
+    let left = r.path(&t, "lleg_joint_6", cpg_hoap2::SOLE_IN_ANKLE_M).unwrap();
+    let right = r.path(&t, "rleg_joint_6", cpg_hoap2::SOLE_IN_ANKLE_M).unwrap();
+    let g = cpg_hoap2::gait(&left, &right, 120.0, 0, 2).unwrap();
+    // 35_01's stride is about 135 frames (1.12 s), the legs in antiphase.
+    assert!((g.period_s - 1.12).abs() < 0.1, "{g:?}");
+    assert!((g.left_right_phase - 0.5).abs() < 0.1, "{g:?}");
+    assert!(g.excursion_m > 0.03 && g.lift_m > 0.005, "{g:?}");
 }

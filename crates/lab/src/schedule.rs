@@ -151,6 +151,41 @@ impl ControlSchedule {
         Ok(ControlSchedule::Constant(vals))
     }
 
+    /// Applies one line of control values to `current` (one value per name):
+    /// either every value in order (`1, 0` or `1 0`), or `name=value` pairs
+    /// (`u_run=1`, several separated by commas or spaces) that change only
+    /// the inputs they name.
+    pub fn parse_update(text: &str, names: &[String], current: &mut [f64]) -> Result<()> {
+        let tokens: Vec<&str> = text.split(|c: char| c == ',' || c.is_whitespace()).filter(|t| !t.is_empty()).collect();
+        let finite = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
+        if !tokens.iter().any(|t| t.contains('=')) {
+            let vals: Option<Vec<f64>> = tokens.iter().map(|t| finite(t)).collect();
+            let vals = vals.filter(|v| v.len() == names.len()).ok_or_else(|| {
+                Error::Data(format!(
+                    "'{}': expected {} finite numbers ([{}]) or name=value pairs",
+                    short(text),
+                    names.len(),
+                    names.join(", ")
+                ))
+            })?;
+            current.copy_from_slice(&vals);
+            return Ok(());
+        }
+        let mut next = current.to_vec();
+        for t in tokens {
+            let (name, value) = t
+                .split_once('=')
+                .ok_or_else(|| Error::Data(format!("'{}': mixes bare numbers with name=value pairs", short(text))))?;
+            let k = names.iter().position(|n| n == name).ok_or_else(|| {
+                Error::Data(format!("'{}' is not a control input; the model's are [{}]", short(name), names.join(", ")))
+            })?;
+            next[k] = finite(value)
+                .ok_or_else(|| Error::Data(format!("{name}={}: expected a finite number", short(value))))?;
+        }
+        current.copy_from_slice(&next);
+        Ok(())
+    }
+
     /// A CSV whose header names the control inputs (in the model's order),
     /// then one row of values per step. `file` names the source in errors.
     pub fn parse_csv(text: &str, file: &Path, names: &[String]) -> Result<ControlSchedule> {

@@ -26,6 +26,7 @@ mod asf;
 pub mod cycle;
 pub mod data;
 mod error;
+mod ground;
 mod kinematics;
 mod lex;
 mod motion;

@@ -691,10 +691,66 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
         let s = stem("e6_hoap2", &r.header);
         if let Some(dir) = dir {
             std::fs::write(dir.join(format!("{s}_120hz.csv")), h.trajectory.to_csv())?;
-            std::fs::write(dir.join(format!("{s}_1khz.csv")), h.trajectory.resample(1000.0)?.to_csv())?;
+            std::fs::write(dir.join(format!("{s}_1khz.csv")), h.trajectory_1khz.to_csv())?;
+            std::fs::write(dir.join(format!("{s}_1khz.json")), h.trajectory_1khz.to_ros_json())?;
         }
-        md.line(format!("The last 10 s of E6 ({}) mapped by the configuration's channel map onto the joints of the URDF and clamped to their position limits: `{s}_120hz.csv`, `{s}_1khz.csv` (time_s, then one column per joint in rad).", protocol_name(&r.header)));
+        md.line(format!(
+            "The last 10 s of E6 ({}) mapped by the configuration's channel map onto the joints of the URDF, resampled by a natural cubic spline and kept within every joint's position range, its URDF velocity limit ({} rad/s) and an acceleration bound of {} rad/s² (ours: the HOAP-2 documents give none): `{s}_120hz.csv`, `{s}_1khz.csv` (time_s, then every joint's angle in rad, velocity in rad/s and acceleration in rad/s²) and `{s}_1khz.json` (a trajectory_msgs/JointTrajectory).",
+            protocol_name(&r.header),
+            h.velocity_limit_rad_s,
+            h.acceleration_bound_rad_s2
+        ));
         md.blank();
+        md.line(format!(
+            "At 1 kHz the fastest commanded joint speed is {:.2} rad/s and the largest acceleration {:.1} rad/s²; {} commanded angle(s) lie outside their joint's range. Within every limit: {}.",
+            h.max_speed_rad_s,
+            h.max_acceleration_rad_s2,
+            h.n_outside_range,
+            if h.n_outside_range == 0
+                && h.max_speed_rad_s <= h.velocity_limit_rad_s + 1e-9
+                && h.max_acceleration_rad_s2 <= h.acceleration_bound_rad_s2 + 1e-6
+            {
+                "yes"
+            } else {
+                "no"
+            }
+        ));
+        md.blank();
+        if h.robot_gait.is_some() || h.human_gait_scaled.is_some() {
+            md.line(format!(
+                "The gait on the robot (HOAP-2 forward kinematics of the commanded angles at the model's rate: the soles in the trunk frame) beside the human's in the recorded trial (the ankles relative to the root), its lengths scaled by the ratio of the legs ({:.3}: HOAP-2's thigh + shank over the human's femur + tibia).",
+                h.leg_scale
+            ));
+            md.blank();
+            let g = |x: Option<cpg_hoap2::Gait>, f: fn(&cpg_hoap2::Gait) -> String| {
+                x.as_ref().map(f).unwrap_or_else(|| "no full cycle".into())
+            };
+            let rows = vec![
+                vec![
+                    "forward excursion of a foot (m)".to_owned(),
+                    g(h.robot_gait, |x| format!("{:.3}", x.excursion_m)),
+                    g(h.human_gait_scaled, |x| format!("{:.3}", x.excursion_m)),
+                ],
+                vec![
+                    "foot lift (m)".to_owned(),
+                    g(h.robot_gait, |x| format!("{:.3}", x.lift_m)),
+                    g(h.human_gait_scaled, |x| format!("{:.3}", x.lift_m)),
+                ],
+                vec![
+                    "cycle period (s)".to_owned(),
+                    g(h.robot_gait, |x| format!("{:.3}", x.period_s)),
+                    g(h.human_gait_scaled, |x| format!("{:.3}", x.period_s)),
+                ],
+                vec![
+                    "right foot behind the left (cycles; 0.5 is antiphase)".to_owned(),
+                    g(h.robot_gait, |x| format!("{:.2}", x.left_right_phase)),
+                    g(h.human_gait_scaled, |x| format!("{:.2}", x.left_right_phase)),
+                ],
+            ];
+            md.table(&["measure", "robot (generated)", "human (recorded, scaled)"], "lrr", &rows);
+            md.blank();
+        }
+        let pct = |k: usize, n: usize| format!("{:.1} %", 100.0 * k as f64 / n.max(1) as f64);
         let rows: Vec<Vec<String>> = h
             .clamps
             .joints
@@ -702,13 +758,32 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
             .map(|c| {
                 vec![
                     c.joint.clone(),
-                    format!("{:.1} %", 100.0 * c.n_clamped as f64 / c.n_frames.max(1) as f64),
+                    pct(c.n_clamped, c.n_frames),
                     format!("{:.2}°", c.max_excess_rad.to_degrees()),
                     format!("{:.1} … {:.1}", c.min_rad.to_degrees(), c.max_rad.to_degrees()),
+                    format!("{:.2}", c.max_velocity_rad_s),
+                    pct(c.n_velocity_limited, c.n_frames),
+                    format!("{:.1}", c.max_acceleration_rad_s2),
+                    pct(c.n_acceleration_limited, c.n_frames),
+                    format!("{:.2}°", c.max_lag_rad.to_degrees()),
                 ]
             })
             .collect();
-        md.table(&["joint", "frames clamped", "largest excess", "range before clamping (deg)"], "lrrr", &rows);
+        md.table(
+            &[
+                "joint",
+                "frames clamped",
+                "largest excess",
+                "range asked (deg)",
+                "speed asked (rad/s)",
+                "frames speed-limited",
+                "acceleration asked (rad/s²)",
+                "frames acceleration-limited",
+                "largest lag",
+            ],
+            "lrrrrrrrr",
+            &rows,
+        );
     }
     Ok(())
 }

@@ -2,9 +2,11 @@
 
 mod fk;
 mod inspect;
+mod stream;
 
 pub use fk::run as fk;
 pub use inspect::run as inspect;
+pub use stream::{Stream, run as stream};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -250,7 +252,8 @@ pub fn generate(
                 })
                 .collect::<anyhow::Result<_>>()?;
             let y = run_units(&m, &controls, n)?;
-            let motion = Motion::new(channels, y, rate)?;
+            // Every channel, and a root on the floor when the model generates none.
+            let motion = sk.ground(&Motion::new(channels, y, rate)?)?;
             let text = write_amc(&sk, &motion)?;
             write_output(output, |w| Ok(w.write_all(text.as_bytes())?))?;
         }
@@ -261,7 +264,7 @@ pub fn generate(
 }
 
 /// An asset of this checkout: the path as given, else the same path under the workspace root.
-fn asset(p: &Path) -> PathBuf {
+pub fn asset(p: &Path) -> PathBuf {
     if p.exists() || p.is_absolute() {
         return p.to_owned();
     }
@@ -279,6 +282,9 @@ pub struct Hoap2<'a> {
     pub urdf: &'a Path,
     pub map: &'a Path,
     pub output: &'a Path,
+    pub format: Option<&'a str>,
+    pub acceleration_rad_s2: f64,
+    pub strict: bool,
 }
 
 /// `cpg hoap2`.
@@ -297,36 +303,79 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     }
     let rate = m.provenance.sample_rate_hz;
     let n = steps(a.seconds, rate, m.outputs.len())?;
-    if let Some(r) = a.rate_hz {
-        cpg_hoap2::JointTrajectory::check_rate(r, a.seconds, map.entries.len())?;
+    let out_rate = a.rate_hz.unwrap_or(rate);
+    let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, a.seconds, map.entries.len())?;
+    let format = match a.format {
+        Some(f) => f.to_owned(),
+        None => match a.output.extension().and_then(|e| e.to_str()) {
+            Some("json") => "json".into(),
+            Some("yaml" | "yml") => "yaml".into(),
+            _ => "csv".into(),
+        },
+    };
+    if !["csv", "json", "yaml"].contains(&format.as_str()) {
+        bail!("--format {format}: expected csv, json (trajectory_msgs/JointTrajectory) or yaml (the same)");
     }
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
-    let y = run_units(&m, &controls, n)?;
-    let mut t = map.apply(&robot, &names, &y, rate)?;
-    if let Some(r) = a.rate_hz {
-        t = t.resample(r).context("resampling")?;
-    }
-    let csv = t.to_csv();
-    write_output(a.output, |w| Ok(w.write_all(csv.as_bytes())?))?;
+    // Two frames more than asked, so that the spline reaches the last output row.
+    let y = run_units(&m, &controls, n + 2)?;
+    let t = map.apply(&robot, &names, &y, rate)?;
+    let t = t.resample(&robot, out_rate, n_out).context("resampling")?;
+    let t = t.limit(&robot, a.acceleration_rad_s2)?;
+    let text = match format.as_str() {
+        "json" => t.to_ros_json(),
+        "yaml" => t.to_ros_yaml(),
+        _ => t.to_csv(),
+    };
     eprintln!(
-        "wrote {} frames at {} Hz of {} HOAP-2 joints (rad) to {}",
+        "{:<14} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>8}",
+        "joint", "position", "max excess", "min (deg)", "max (deg)", "speed asked", "acc asked", "speed", "acc", "lag"
+    );
+    let pct = |k: usize, n: usize| 100.0 * k as f64 / n.max(1) as f64;
+    for c in &t.clamps.joints {
+        eprintln!(
+            "{:<14} {:>8.1}% {:>9.2}° {:>10.1} {:>10.1} {:>8.2}/s {:>8.1}/s² {:>7.1}% {:>7.1}% {:>7.2}°",
+            c.joint,
+            pct(c.n_clamped, c.n_frames),
+            c.max_excess_rad.to_degrees(),
+            c.min_rad.to_degrees(),
+            c.max_rad.to_degrees(),
+            c.max_velocity_rad_s,
+            c.max_acceleration_rad_s2,
+            pct(c.n_velocity_limited, c.n_frames),
+            pct(c.n_acceleration_limited, c.n_frames),
+            c.max_lag_rad.to_degrees()
+        );
+    }
+    eprintln!(
+        "(position: frames clamped to the URDF range; speed and acc asked: the largest before limiting, rad; speed, acc: frames held back by the URDF's velocity limit and the {} rad/s² acceleration bound; lag: the largest distance from the angle asked)",
+        a.acceleration_rad_s2
+    );
+    let over = t.clamps.over(cpg_hoap2::WARN_LIMITED_SHARE);
+    if !over.is_empty() {
+        let list: Vec<String> =
+            over.iter().map(|c| format!("{} ({:.0} %)", c.joint, 100.0 * c.limited_share())).collect();
+        let msg = format!(
+            "{} joint(s) limited in more than {:.0} % of frames: {}",
+            over.len(),
+            100.0 * cpg_hoap2::WARN_LIMITED_SHARE,
+            list.join(", ")
+        );
+        if a.strict {
+            bail!("{msg}; nothing was written (--strict)");
+        }
+        eprintln!("warning: {msg} (--strict makes this an error)");
+    }
+    write_output(a.output, |w| Ok(w.write_all(text.as_bytes())?))?;
+    eprintln!(
+        "wrote {} frames ({} s at {} Hz) of {} HOAP-2 joints ({format}: positions rad, velocities rad/s, accelerations rad/s²) to {}",
         t.n_frames(),
+        a.seconds,
         t.rate_hz,
         t.joints.len(),
         dest.describe()
     );
-    eprintln!("{:<14} {:>9} {:>12} {:>10} {:>10}", "joint", "clamped", "max excess", "min (deg)", "max (deg)");
-    for c in &t.clamps.joints {
-        eprintln!(
-            "{:<14} {:>8.1}% {:>10.2}° {:>10.1} {:>10.1}",
-            c.joint,
-            100.0 * c.n_clamped as f64 / c.n_frames.max(1) as f64,
-            c.max_excess_rad.to_degrees(),
-            c.min_rad.to_degrees(),
-            c.max_rad.to_degrees()
-        );
-    }
     Ok(())
 }
 

@@ -11,7 +11,7 @@ use super::{Header, Options, Progress, SeedModel, header, section};
 use crate::config::{Config, CouplingTestSection};
 use crate::error::{Error, Result};
 use crate::measure::{column, free_run};
-use crate::prepare::prepare;
+use crate::prepare::{Prepared, prepare};
 use crate::schedule::ControlSchedule;
 use crate::train::train_prepared;
 
@@ -40,14 +40,36 @@ pub struct LagRow {
     pub cycle_nmse: f64,
 }
 
-/// The HOAP-2 mapping of the last 10 s.
+/// The HOAP-2 mapping of the last 10 s: at the model's rate and resampled to
+/// 1 kHz, each kept within the URDF's position and velocity limits and the
+/// acceleration bound.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Hoap2 {
-    /// How often and how far each joint was clamped.
+    /// What each bound changed, per joint, in the 1 kHz trajectory.
     pub clamps: ClampReport,
-    /// The trajectory (radians).
+    /// The acceleration bound, rad/s².
+    pub acceleration_bound_rad_s2: f64,
+    /// The smallest velocity limit of the joints in the URDF, rad/s.
+    pub velocity_limit_rad_s: f64,
+    /// The fastest joint speed commanded at 1 kHz, rad/s.
+    pub max_speed_rad_s: f64,
+    /// The largest joint acceleration commanded at 1 kHz, rad/s².
+    pub max_acceleration_rad_s2: f64,
+    /// Commanded angles that lie outside their joint's position range (0 when the limits held).
+    pub n_outside_range: usize,
+    /// The robot's gait (HOAP-2 kinematics of the commanded angles, soles in the trunk frame).
+    pub robot_gait: Option<cpg_hoap2::Gait>,
+    /// The human's gait in the recorded segment (ankles relative to the root), lengths
+    /// multiplied by [`Hoap2::leg_scale`].
+    pub human_gait_scaled: Option<cpg_hoap2::Gait>,
+    /// HOAP-2's leg length (thigh + shank) over the human's (femur + tibia).
+    pub leg_scale: f64,
+    /// The trajectory at the model's rate (radians).
     #[serde(skip)]
     pub trajectory: JointTrajectory,
+    /// The trajectory at 1 kHz (radians).
+    #[serde(skip)]
+    pub trajectory_1khz: JointTrajectory,
 }
 
 /// One channel plotted against the reference channel.
@@ -179,8 +201,52 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
         Some(r) => {
             let robot = Robot::from_urdf_file(&r.urdf)?;
             let map = ChannelMap::load(&r.map)?;
-            let trajectory = map.apply(&robot, &names, &last10_units, rate)?;
-            Some(Hoap2 { clamps: trajectory.clamps.clone(), trajectory })
+            let a_max = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2;
+            let mapped = map.apply(&robot, &names, &last10_units, rate)?;
+            let trajectory = mapped.limit(&robot, a_max)?;
+            let n_1khz = JointTrajectory::check_rate(1000.0, mapped.n_frames() as f64 / rate, mapped.joints.len())?;
+            let fast = mapped.resample(&robot, 1000.0, n_1khz)?.limit(&robot, a_max)?;
+            let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let d = fast.joints.len();
+            let mut n_outside_range = 0;
+            for (j, name) in fast.joints.iter().enumerate() {
+                let joint = robot.joint(name)?;
+                n_outside_range += fast
+                    .values_rad
+                    .iter()
+                    .skip(j)
+                    .step_by(d)
+                    .filter(|q| !(joint.lower_rad..=joint.upper_rad).contains(*q))
+                    .count();
+            }
+            let sole = cpg_hoap2::SOLE_IN_ANKLE_M;
+            let robot_gait = cpg_hoap2::gait(
+                &robot.path(&trajectory, "lleg_joint_6", sole)?,
+                &robot.path(&trajectory, "rleg_joint_6", sole)?,
+                rate,
+                0,
+                2,
+            );
+            let (human_gait_scaled, leg_scale) = human_gait(&prep, &names, &robot, rate)?;
+            Some(Hoap2 {
+                robot_gait,
+                human_gait_scaled,
+                leg_scale,
+                clamps: fast.clamps.clone(),
+                acceleration_bound_rad_s2: a_max,
+                velocity_limit_rad_s: fast
+                    .joints
+                    .iter()
+                    .map(|n| robot.joint(n).map(|j| j.velocity_rad_s))
+                    .collect::<std::result::Result<Vec<_>, _>>()?
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min),
+                max_speed_rad_s: max_abs(&fast.velocities_rad_s),
+                max_acceleration_rad_s2: max_abs(&fast.accelerations_rad_s2),
+                n_outside_range,
+                trajectory,
+                trajectory_1khz: fast,
+            })
         }
         None => None,
     };
@@ -215,4 +281,42 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
         last10_units,
         trained: Some(m),
     })
+}
+
+/// The human's gait in the first recorded segment: ankle paths relative to
+/// the root (root rotation 0, y up, facing +z), lengths scaled to HOAP-2's
+/// legs; and the scale (HOAP-2's thigh + shank over the human's femur + tibia).
+fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Result<(Option<cpg_hoap2::Gait>, f64)> {
+    let sk = &prep.skeleton;
+    let bone = |n: &str| sk.bones.iter().find(|b| b.name == n).map(|b| b.length * sk.mm_per_unit() / 1000.0);
+    let robot_leg = robot.joint("lleg_joint_4")?.origin_m[2].abs() + robot.joint("lleg_joint_5")?.origin_m[2].abs();
+    let (Some(femur), Some(tibia), Some(seg)) = (bone("lfemur"), bone("ltibia"), prep.segments.first()) else {
+        return Ok((None, f64::NAN));
+    };
+    let scale = robot_leg / (femur + tibia);
+    let d = names.len();
+    let units: Vec<f64> =
+        seg.iter().enumerate().map(|(i, z)| z * prep.outputs[i % d].std + prep.outputs[i % d].mean).collect();
+    let channels = names
+        .iter()
+        .map(|n| {
+            cpg_mocap::Channel::parse(n).ok_or_else(|| crate::Error::Data(format!("'{n}' is not a mocap channel")))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let m = sk.complete(&cpg_mocap::Motion::new(channels, units, rate)?)?;
+    let p = sk.forward_kinematics(&m)?;
+    let path = |point: &str| -> Option<Vec<[f64; 3]>> {
+        let k = p.point_index(point)?;
+        let root = p.point_index("root")?;
+        Some(
+            (0..p.n_frames())
+                .map(|f| {
+                    let (a, r) = (p.frame(f)[k], p.frame(f)[root]);
+                    [(a[0] - r[0]) / 1000.0 * scale, (a[1] - r[1]) / 1000.0 * scale, (a[2] - r[2]) / 1000.0 * scale]
+                })
+                .collect(),
+        )
+    };
+    let (Some(l), Some(r)) = (path("ltibia"), path("rtibia")) else { return Ok((None, scale)) };
+    Ok((cpg_hoap2::gait(&l, &r, rate, 2, 1), scale))
 }
