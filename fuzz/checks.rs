@@ -29,11 +29,7 @@ pub fn asf(data: &[u8]) {
         assert!(b.limits.is_empty() || b.limits.len() == b.dofs.len(), "bone {}", b.name);
     }
     // The rest pose: one frame of zeros for every channel.
-    let mut channels: Vec<cpg_mocap::Channel> =
-        sk.root.order.iter().map(|&dof| cpg_mocap::Channel { bone: "root".into(), dof }).collect();
-    for b in &sk.bones {
-        channels.extend(b.dofs.iter().map(|&dof| cpg_mocap::Channel { bone: b.name.clone(), dof }));
-    }
+    let channels = sk.all_channels();
     let zeros = vec![0.0; channels.len()];
     if let Ok(m) = cpg_mocap::Motion::new(channels, zeros, 120.0)
         && let Ok(p) = sk.forward_kinematics(&m)

@@ -155,6 +155,18 @@ pub struct Joint {
     pub velocity_rad_s: f64,
 }
 
+impl Joint {
+    /// This joint's position range and velocity limit, with `acceleration_rad_s2` as its acceleration bound.
+    pub fn bounds(&self, acceleration_rad_s2: f64) -> Bounds {
+        Bounds {
+            lower_rad: self.lower_rad,
+            upper_rad: self.upper_rad,
+            velocity_rad_s: self.velocity_rad_s,
+            acceleration_rad_s2,
+        }
+    }
+}
+
 /// The revolute joints of a robot, in URDF order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
@@ -549,13 +561,7 @@ impl JointTrajectory {
         let dt = 1.0 / self.rate_hz;
         for (j, name) in self.joints.iter().enumerate() {
             let joint = robot.joint(name)?;
-            let b = Bounds {
-                lower_rad: joint.lower_rad,
-                upper_rad: joint.upper_rad,
-                velocity_rad_s: joint.velocity_rad_s,
-                acceleration_rad_s2,
-            };
-            let mut l = Limiter::new(b, dt);
+            let mut l = Limiter::new(joint.bounds(acceleration_rad_s2), dt);
             let r = &mut t.clamps.joints[j];
             for f in 0..n {
                 let k = f * d + j;

@@ -139,11 +139,17 @@ const MAX_SECONDS: f64 = 86_400.0;
 /// Most values one run holds in memory (1 GiB of f64).
 const MAX_VALUES: usize = 1 << 27;
 
-/// The steps of a run of `seconds` at `rate` Hz with `d` channels, bounded.
-fn steps(seconds: f64, rate: f64, d: usize) -> anyhow::Result<usize> {
+/// Checks `--seconds`: above 0 and at most [`MAX_SECONDS`].
+fn check_seconds(seconds: f64) -> anyhow::Result<()> {
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
         bail!("--seconds {}: expected a duration above 0 and at most {MAX_SECONDS} (one day)", short_number(seconds));
     }
+    Ok(())
+}
+
+/// The steps of a run of `seconds` at `rate` Hz with `d` channels, bounded.
+fn steps(seconds: f64, rate: f64, d: usize) -> anyhow::Result<usize> {
+    check_seconds(seconds)?;
     let n = (seconds * rate).round() as usize;
     if n == 0 {
         bail!("--seconds {seconds} at {rate} Hz is less than one step");

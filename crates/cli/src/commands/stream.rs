@@ -8,7 +8,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
-use cpg_hoap2::{Bounds, ChannelMap, Limiter, Robot};
+use cpg_hoap2::{ChannelMap, Limiter, Robot};
 use cpg_lab::ControlSchedule;
 use cpg_reservoir::{Generator, TrainedCpg};
 
@@ -73,13 +73,10 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     let m = TrainedCpg::load(s.model)?;
     let model_rate = m.provenance.sample_rate_hz;
     let rate = s.rate_hz.unwrap_or(model_rate);
-    if !(rate.is_finite() && (1.0..=10_000.0).contains(&rate)) {
-        bail!("--rate-hz {rate}: expected 1 to 10000 Hz");
-    }
-    if let Some(sec) = s.seconds
-        && !(sec.is_finite() && sec > 0.0 && sec <= 86_400.0)
-    {
-        bail!("--seconds {sec}: expected a duration above 0 and at most 86400 (one day)");
+    // The same rate range as a resampled trajectory; the stream holds no frames, so only the duration is bounded.
+    cpg_hoap2::JointTrajectory::check_rate(rate, 0.0, 1).context("--rate-hz")?;
+    if let Some(sec) = s.seconds {
+        super::check_seconds(sec)?;
     }
     if !(s.acceleration_rad_s2.is_finite() && s.acceleration_rad_s2 > 0.0) {
         bail!("--acceleration-rad-s2 {}: expected a positive bound", s.acceleration_rad_s2);
@@ -105,19 +102,8 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
             let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
             let plan = map.plan(&robot, &names)?;
             let dt = 1.0 / rate;
-            let limiters: Vec<Limiter> = plan
-                .joints
-                .iter()
-                .map(|j| {
-                    let b = Bounds {
-                        lower_rad: j.lower_rad,
-                        upper_rad: j.upper_rad,
-                        velocity_rad_s: j.velocity_rad_s,
-                        acceleration_rad_s2: s.acceleration_rad_s2,
-                    };
-                    Limiter::new(b, dt)
-                })
-                .collect();
+            let limiters: Vec<Limiter> =
+                plan.joints.iter().map(|j| Limiter::new(j.bounds(s.acceleration_rad_s2), dt)).collect();
             Some((plan, limiters))
         }
         None => None,
