@@ -55,6 +55,20 @@ const RULES: &[(&str, &[&str])] = &[
     ("cpg-dmp", &["cpg-reservoir", "cpg-centralized", "cpg-compare", "cpg-hoap2", "cpg-cli", "cpg-lab", "anyhow"]),
     ("cpg-centralized", &["cpg-reservoir", "cpg-dmp", "cpg-compare", "cpg-hoap2", "cpg-cli", "cpg-lab", "anyhow"]),
     ("cpg-compare", &["cpg-hoap2", "cpg-cli", "cpg-lab", "anyhow"]),
+    (
+        "cpg-view",
+        &[
+            "cpg-reservoir",
+            "cpg-regression",
+            "cpg-lab",
+            "cpg-cli",
+            "cpg-compare",
+            "anyhow",
+            "faer",
+            "rayon",
+            "plotters",
+        ],
+    ),
     ("cpg-lab", &["cpg-cli", "anyhow", "clap", "indicatif", "plotters"]),
 ];
 

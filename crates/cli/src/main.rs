@@ -120,12 +120,8 @@ enum Command {
         /// Resample to this rate (e.g. 1000 for a 1 kHz servo loop) [default: the model's rate].
         #[arg(long)]
         rate_hz: Option<f64>,
-        /// The robot description.
-        #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
-        urdf: PathBuf,
-        /// The channel-to-joint map.
-        #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
-        map: PathBuf,
+        #[command(flatten)]
+        robot: RobotArgs,
         /// Output file (`-`: standard output; a file is written atomically, a
         /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
@@ -134,10 +130,6 @@ enum Command {
         /// trajectory_msgs/JointTrajectory) [default: from the extension, else csv].
         #[arg(long)]
         format: Option<String>,
-        /// The acceleration bound every joint is kept within, rad/s² (the
-        /// HOAP-2 documents give none; this default is ours).
-        #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
-        acceleration_rad_s2: f64,
         /// Fail, writing nothing, when a joint is limited in more than 5 % of
         /// its frames (without it, a warning).
         #[arg(long)]
@@ -170,15 +162,9 @@ enum Command {
         /// Map onto a robot's joints: hoap2 (with --urdf and --map).
         #[arg(long)]
         robot: Option<String>,
-        /// The robot description (with --robot).
-        #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
-        urdf: PathBuf,
-        /// The channel-to-joint map (with --robot).
-        #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
-        map: PathBuf,
-        /// The acceleration bound of every joint with --robot, rad/s².
-        #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
-        acceleration_rad_s2: f64,
+        /// With --robot: the robot description, the map and the acceleration bound.
+        #[command(flatten)]
+        robot_args: RobotArgs,
         /// Run as fast as possible instead of in real time (for tests and files).
         #[arg(long)]
         no_pacing: bool,
@@ -221,6 +207,67 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Watch a CPG move: teacher, model and HOAP-2 side by side, as one HTML page or a GIF.
+    ///
+    /// With --model: the teacher cycle the model learnt (looped; with
+    /// controls, the teacher of the control setting at each step), the
+    /// model's free run, both as the skeleton stored in the model (channels
+    /// it does not generate at 0, put on the floor), and the HOAP-2 from its
+    /// URDF driven by that run through the channel map, within its position,
+    /// velocity and acceleration limits (a channel the model does not generate
+    /// counts as 0 there too; --no-robot leaves the robot out). With --motion
+    /// and --skeleton: a recording and the HOAP-2 driven by it.
+    ///
+    /// HTML (the default, or -o NAME.html): one self-contained file, no
+    /// network, that plays at once, with play/pause, speed, a time slider and
+    /// a view angle (drag a figure to turn it). GIF (-o NAME.gif or --format
+    /// gif): the first --gif-seconds as a looping animation for papers.
+    View {
+        /// The model file [or --motion].
+        #[arg(long, short)]
+        model: Option<PathBuf>,
+        /// Constant control values for the model, comma-separated (e.g. 1,0).
+        #[arg(long, allow_hyphen_values = true)]
+        control: Option<String>,
+        /// Control values over time: a CSV whose header names the control inputs, one row per step.
+        #[arg(long)]
+        control_file: Option<PathBuf>,
+        /// A recording (.amc) to watch instead of a model.
+        #[arg(long)]
+        motion: Option<PathBuf>,
+        /// The recording's skeleton (.asf).
+        #[arg(long, short)]
+        skeleton: Option<PathBuf>,
+        /// Capture rate of the recording in Hz.
+        #[arg(long, default_value_t = 120.0)]
+        rate_hz: f64,
+        /// Seconds shown (a recording: at most its length).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Leave the robot out.
+        #[arg(long)]
+        no_robot: bool,
+        #[command(flatten)]
+        robot: RobotArgs,
+        /// Output file: .html or .gif (`-`: standard output; a file is written
+        /// atomically, a symlink's target likewise, a device or FIFO in place).
+        #[arg(long, short)]
+        output: PathBuf,
+        /// html or gif [default: from the extension, else html].
+        #[arg(long)]
+        format: Option<String>,
+        /// Seconds of the GIF, from the start.
+        #[arg(long, default_value_t = 6.0)]
+        gif_seconds: f64,
+        /// Frames per second of the GIF (its delays are in hundredths of a
+        /// second, so 25 or 50 play exactly in real time).
+        #[arg(long, default_value_t = 25.0)]
+        fps: f64,
+        /// The initial view angle about the vertical, degrees (0: from the
+        /// front, 90: from the figure's left side).
+        #[arg(long, default_value_t = 60.0, allow_hyphen_values = true)]
+        yaw_deg: f64,
+    },
     /// Judge a trained CPG: a long free run and a push, against its teachers.
     ///
     /// For each control setting the model was taught (or the one given by
@@ -241,6 +288,21 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// The robot a command drives: its URDF, the map onto its joints, and the acceleration bound.
+#[derive(Debug, clap::Args)]
+struct RobotArgs {
+    /// The robot description (URDF).
+    #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
+    urdf: PathBuf,
+    /// The channel-to-joint map (TSV: joint, channel, sign, offset_deg; see docs/hoap2-map.md).
+    #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
+    map: PathBuf,
+    /// The acceleration bound every joint is kept within, rad/s² (the
+    /// HOAP-2 documents give none; this default is ours).
+    #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
+    acceleration_rad_s2: f64,
 }
 
 /// What every command that runs a model takes.
@@ -275,22 +337,20 @@ fn main() -> ExitCode {
             skeleton.as_deref(),
             &output,
         ),
-        Command::Hoap2 { run, seconds, rate_hz, urdf, map, output, format, acceleration_rad_s2, strict } => {
-            commands::hoap2(commands::Hoap2 {
-                model: &run.model,
-                seconds,
-                control: run.control.as_deref(),
-                control_file: run.control_file.as_deref(),
-                rate_hz,
-                urdf: &urdf,
-                map: &map,
-                output: &output,
-                format: format.as_deref(),
-                acceleration_rad_s2,
-                strict,
-            })
-        }
-        Command::Stream { model, rate_hz, seconds, control, robot, urdf, map, acceleration_rad_s2, no_pacing } => {
+        Command::Hoap2 { run, seconds, rate_hz, robot, output, format, strict } => commands::hoap2(commands::Hoap2 {
+            model: &run.model,
+            seconds,
+            control: run.control.as_deref(),
+            control_file: run.control_file.as_deref(),
+            rate_hz,
+            urdf: &robot.urdf,
+            map: &robot.map,
+            output: &output,
+            format: format.as_deref(),
+            acceleration_rad_s2: robot.acceleration_rad_s2,
+            strict,
+        }),
+        Command::Stream { model, rate_hz, seconds, control, robot, robot_args, no_pacing } => {
             match robot.as_deref() {
                 None | Some("hoap2") => {}
                 Some(other) => {
@@ -298,14 +358,14 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             }
-            let (urdf, map) = (commands::asset(&urdf), commands::asset(&map));
+            let (urdf, map) = (commands::asset(&robot_args.urdf), commands::asset(&robot_args.map));
             commands::stream(commands::Stream {
                 model: &model,
                 rate_hz,
                 seconds,
                 control: control.as_deref(),
                 robot: robot.is_some().then_some((urdf.as_path(), map.as_path())),
-                acceleration_rad_s2,
+                acceleration_rad_s2: robot_args.acceleration_rad_s2,
                 pacing: !no_pacing,
             })
         }
@@ -314,6 +374,39 @@ fn main() -> ExitCode {
                 cpg_lab::tune::TuneSettings { budget, seeds, long_run_s: seconds, search_seed, ..Default::default() };
             commands::tune(&config, &s, output.as_deref(), json)
         }
+        Command::View {
+            model,
+            control,
+            control_file,
+            motion,
+            skeleton,
+            rate_hz,
+            seconds,
+            no_robot,
+            robot,
+            output,
+            format,
+            gif_seconds,
+            fps,
+            yaw_deg,
+        } => commands::view(commands::View {
+            model: model.as_deref(),
+            control: control.as_deref(),
+            control_file: control_file.as_deref(),
+            motion: motion.as_deref(),
+            skeleton: skeleton.as_deref(),
+            motion_rate_hz: rate_hz,
+            seconds,
+            robot: !no_robot,
+            urdf: &robot.urdf,
+            map: &robot.map,
+            acceleration_rad_s2: robot.acceleration_rad_s2,
+            output: &output,
+            format: format.as_deref(),
+            gif_seconds,
+            fps,
+            yaw_deg,
+        }),
         Command::Evaluate { run, seconds, json } => {
             commands::evaluate(&run.model, seconds, run.control.as_deref(), run.control_file.as_deref(), json)
         }

@@ -5,43 +5,11 @@
 
 use std::ffi::OsStr;
 use std::io::{BufRead, Write};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
+use std::process::{Command, Stdio};
 
-use cpg_mocap::data::{Subject, find};
+mod common;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn cpg<S: AsRef<OsStr>>(args: &[S]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cpg")).args(args).current_dir(repo()).output().unwrap()
-}
-
-fn ok(o: &Output) -> String {
-    let err = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(o.status.success(), "failed: {err}");
-    err
-}
-
-struct Trained {
-    _dir: tempfile::TempDir,
-    model: PathBuf,
-}
-
-/// examples/walk22.toml: 22 channels of 35_01, mapped to HOAP-2's 22 arm and leg joints.
-fn walk22() -> &'static Path {
-    static M: OnceLock<Trained> = OnceLock::new();
-    &M.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
-        let model = dir.path().join("walk22.cpg");
-        let c = repo().join("examples/walk22.toml");
-        ok(&cpg(&[OsStr::new("train"), "-c".as_ref(), c.as_os_str(), "-o".as_ref(), model.as_os_str()]));
-        Trained { _dir: dir, model }
-    })
-    .model
-}
+use common::{cmu, cpg, ok, repo, walk22};
 
 #[test]
 fn hoap2_trajectories_have_exact_rows_and_keep_every_limit() {
@@ -180,9 +148,9 @@ fn stream_follows_a_control_change_through_a_pipe() {
     let dir = tempfile::tempdir().unwrap();
     // E5 (walk and run of the left femur, two control inputs) with a coarser penalty grid.
     let mut c = std::fs::read_to_string(repo().join("experiments/e5.toml")).unwrap();
-    c = c.replace("../data/cmu35/35.asf", &find(Subject::S35, "35.asf").unwrap().display().to_string());
+    c = c.replace("../data/cmu35/35.asf", &cmu("35.asf").display().to_string());
     for f in ["35_01.amc", "35_17.amc"] {
-        c = c.replace(&format!("../data/cmu35/{f}"), &find(Subject::S35, f).unwrap().display().to_string());
+        c = c.replace(&format!("../data/cmu35/{f}"), &cmu(f).display().to_string());
     }
     c = c.replacen(
         "penalty_log10 = { start = 1, step = 0.1, stop = -8 }",
@@ -275,7 +243,7 @@ fn generated_amc_stands_on_the_floor() {
         "-o".as_ref(),
         amc.as_os_str(),
     ]));
-    let sk = cpg_mocap::Skeleton::from_file(find(Subject::S35, "35.asf").unwrap()).unwrap();
+    let sk = cpg_mocap::Skeleton::from_file(cmu("35.asf")).unwrap();
     let m = cpg_mocap::Motion::from_amc_file(&amc, &sk, 120.0).unwrap();
     let p = sk.forward_kinematics(&m).unwrap();
     let mut walked = 0.0f64;

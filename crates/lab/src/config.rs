@@ -442,6 +442,8 @@ pub struct GaitsSection {
     /// deviations of the new gait's orbit for a cycle.
     #[serde(default = "default_threshold")]
     pub threshold_sd: f64,
+    /// The robot the first seed's smooth switching run is shown on (optional).
+    pub robot: Option<RobotSection>,
 }
 
 /// `[experiment.coupling]`.
@@ -662,12 +664,24 @@ impl Config {
         for s in &mut c.data.segments {
             fix(&mut s.motion);
         }
-        if let Some(r) = c.experiment.as_mut().and_then(|e| e.coupling.as_mut()).and_then(|k| k.robot.as_mut()) {
+        for r in c.robots_mut() {
             fix(&mut r.urdf);
             fix(&mut r.map);
         }
         c.check(file)?;
         Ok(c)
+    }
+
+    /// The robot sections of the experiment (E5's and E6's), for their paths.
+    fn robots_mut(&mut self) -> impl Iterator<Item = &mut RobotSection> {
+        let e = self.experiment.as_mut();
+        let (gaits, coupling) = match e {
+            Some(e) => {
+                (e.gaits.as_mut().and_then(|g| g.robot.as_mut()), e.coupling.as_mut().and_then(|k| k.robot.as_mut()))
+            }
+            None => (None, None),
+        };
+        gaits.into_iter().chain(coupling)
     }
 
     /// The configuration as TOML for a file in `dir`: every path is written
@@ -680,7 +694,7 @@ impl Config {
         for s in &mut c.data.segments {
             rel(&mut s.motion);
         }
-        if let Some(r) = c.experiment.as_mut().and_then(|e| e.coupling.as_mut()).and_then(|k| k.robot.as_mut()) {
+        for r in c.robots_mut() {
             rel(&mut r.urdf);
             rel(&mut r.map);
         }

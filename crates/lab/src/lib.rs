@@ -14,6 +14,8 @@
 //! - [`measure`]: one definition each of a rhythm's period and amplitude,
 //!   *decayed*, *accurate*, *converged*, and of recovery after a push.
 //! - [`tune`]: a seeded random search for settings that keep the rhythm.
+//! - [`scene`]: what a trained CPG looks like: teacher, model and robot as a
+//!   `cpg_view::Scene` (rendered as HTML or GIF by `cpg-view`).
 //! - [`experiment`]: E1–E6 of wyffels & Schrauwen (2009) and the comparison
 //!   of generator families (Vakulenko et al. 2017), each returning typed
 //!   results that derive `Serialize`.
@@ -38,6 +40,7 @@ mod error;
 pub mod experiment;
 pub mod measure;
 pub mod prepare;
+pub mod scene;
 pub mod schedule;
 pub mod train;
 pub mod tune;

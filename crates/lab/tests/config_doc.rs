@@ -117,8 +117,16 @@ fn a_configuration_written_back_reads_the_same() {
     let canon = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_owned());
     assert_eq!(canon(&again.data.skeleton), canon(&c.data.skeleton));
     assert_eq!(canon(&again.data.segments[1].motion), canon(&c.data.segments[1].motion));
+    let robot =
+        |c: &Config| c.experiment.as_ref().and_then(|e| e.gaits.as_ref()).and_then(|g| g.robot.clone()).unwrap();
+    assert_eq!(canon(&robot(&again).urdf), canon(&robot(&c).urdf));
+    assert_eq!(canon(&robot(&again).map), canon(&robot(&c).map));
     let (mut a, mut b) = (again.clone(), c.clone());
     for x in [&mut a, &mut b] {
+        if let Some(r) = x.experiment.as_mut().and_then(|e| e.gaits.as_mut()).and_then(|g| g.robot.as_mut()) {
+            r.urdf = Default::default();
+            r.map = Default::default();
+        }
         x.source = Default::default();
         x.data.skeleton = Default::default();
         x.output.model = Default::default();

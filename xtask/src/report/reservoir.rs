@@ -17,6 +17,39 @@ pub fn stem(base: &str, h: &Header) -> String {
     if h.protocol == "ours" { base.to_owned() } else { format!("{base}-{}", h.protocol) }
 }
 
+/// Writes a scene as `NAME.html` (and, with `gif_s`, its first seconds as
+/// `NAME.gif`, shown in the report) and links it.
+fn view(
+    md: &mut Md,
+    scene: Option<&cpg_view::Scene>,
+    name: &str,
+    protocol: &str,
+    what: &str,
+    gif_s: Option<f64>,
+    dir: Option<&Path>,
+) -> anyhow::Result<()> {
+    let Some(scene) = scene else { return Ok(()) };
+    if let Some(dir) = dir {
+        std::fs::write(dir.join(format!("{name}.html")), scene.to_html())?;
+        if let Some(s) = gif_s {
+            let opts = cpg_view::GifOptions { seconds: Some(s), ..Default::default() };
+            std::fs::write(dir.join(format!("{name}.gif")), scene.to_gif(&opts)?)?;
+        }
+    }
+    let labels: Vec<&str> = scene.figures.iter().map(|f| f.label.as_str()).collect();
+    md.line(format!(
+        "Watch it, {protocol}: [`{name}.html`]({name}.html), {what} ({:.0} s), {} side by side in one self-contained page (play, pause, speed, time slider; drag to turn the view).",
+        scene.n_frames() as f64 / scene.rate_hz,
+        labels.join(", ")
+    ));
+    md.blank();
+    if let Some(s) = gif_s {
+        md.line(format!("![{protocol}: the first {s} s of {name}.html]({name}.gif)"));
+        md.blank();
+    }
+    Ok(())
+}
+
 /// The heading of an experiment's section (the summary links to it).
 pub fn heading(o: &cpg_lab::experiment::Outcome) -> String {
     use cpg_lab::experiment::Outcome;
@@ -446,6 +479,17 @@ pub fn gaits(md: &mut Md, rs: &[&GaitsResult], dir: Option<&Path>) -> anyhow::Re
         md.line(format!("![Figure 4, {}]({}.png)", protocol_name(&r.header), stem("fig4", &r.header)));
         md.blank();
     }
+    for r in rs {
+        view(
+            md,
+            r.view.as_ref(),
+            &stem("e5_view", &r.header),
+            &protocol_name(&r.header),
+            "the first seed's smooth switching run",
+            None,
+            dir,
+        )?;
+    }
     let mut head = vec!["claim and measure".to_owned(), "the paper".to_owned()];
     head.extend(rs.iter().map(|r| protocol_name(&r.header)));
     let head: Vec<&str> = head.iter().map(String::as_str).collect();
@@ -596,6 +640,18 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
     for r in rs {
         md.line(protocol_line(&r.header));
         md.blank();
+    }
+    for r in rs {
+        let gif = (r.header.protocol == "ours").then_some(5.0);
+        view(
+            md,
+            r.view.as_ref(),
+            &stem("e6_view", &r.header),
+            &protocol_name(&r.header),
+            "the last 10 s of the free run",
+            gif,
+            dir,
+        )?;
     }
     md.line(format!("{} channels, one seamless cycle of {} frames repeated; free run of {} steps ({:.0} s). A joint's **lag** is how far it trails `{}`, in cycles, from the peak of their cross-correlation (teacher: over its repeated cycle; model: over its last 10 s). Its **deviation** is the model's phase relation minus the teacher's, from aligning the joint's own teacher cycle to three cycles of the first and of the last 10 s: 0 is exactly the teacher's lag. The verdict uses the deviation: a joint with two similar peaks a cycle (the feet) can move its cross-correlation peak from one to the other without any change of phase. One frame is 1/{} of a cycle ({:.4}), the resolution of these columns. Portraits: data (the whole trial) light gray, model black (10 s from {:.0} s on).",
         first.rows.len(), first.period_frames, first.steps, first.run_s, first.reference, first.period_frames, 1.0 / first.period_frames as f64, first.portrait_from_s));

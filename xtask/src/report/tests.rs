@@ -143,6 +143,7 @@ fn gaits() -> GaitsResult {
             passed: true,
         }],
         fig4: Default::default(),
+        view: None,
     }
 }
 

@@ -3,10 +3,12 @@
 mod fk;
 mod inspect;
 mod stream;
+mod view;
 
 pub use fk::run as fk;
 pub use inspect::run as inspect;
 pub use stream::{Stream, run as stream};
+pub use view::{View, run as view};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

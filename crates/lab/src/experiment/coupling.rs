@@ -116,6 +116,10 @@ pub struct CouplingResult {
     /// The last 10 s in the channels' units, frame-major.
     #[serde(skip)]
     pub last10_units: Vec<f64>,
+    /// The last 10 s: teacher, model and (when the configuration names a
+    /// robot) the robot, for `cpg_view`.
+    #[serde(skip)]
+    pub view: Option<cpg_view::Scene>,
     /// The trained model (the comparison of families reuses it).
     #[serde(skip)]
     pub trained: Option<TrainedCpg>,
@@ -197,15 +201,29 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
     let last10_units: Vec<f64> =
         end_win.iter().enumerate().map(|(i, v)| v * m.outputs[i % d].std + m.outputs[i % d].mean).collect();
     let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
-    let hoap2 = match &k.robot {
-        Some(r) => {
-            let robot = Robot::from_urdf_file(&r.urdf)?;
-            let map = ChannelMap::load(&r.map)?;
+    let robot = match &k.robot {
+        Some(r) => Some((Robot::from_urdf_file(&r.urdf)?, ChannelMap::load(&r.map)?)),
+        None => None,
+    };
+    let view = crate::scene::run_scene(
+        &super::view_title(&c),
+        &m,
+        &ControlSchedule::none(),
+        n - ten,
+        &last10_units,
+        robot.as_ref().map(|(r, map)| crate::scene::RobotView {
+            robot: r,
+            map,
+            acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+        }),
+    )?;
+    let hoap2 = match &robot {
+        Some((robot, map)) => {
             let a_max = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2;
-            let mapped = map.apply(&robot, &names, &last10_units, rate)?;
-            let trajectory = mapped.limit(&robot, a_max)?;
+            let mapped = map.apply(robot, &names, &last10_units, rate)?;
+            let trajectory = mapped.limit(robot, a_max)?;
             let n_1khz = JointTrajectory::check_rate(1000.0, mapped.n_frames() as f64 / rate, mapped.joints.len())?;
-            let fast = mapped.resample(&robot, 1000.0, n_1khz)?.limit(&robot, a_max)?;
+            let fast = mapped.resample(robot, 1000.0, n_1khz)?.limit(robot, a_max)?;
             let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             let d = fast.joints.len();
             let mut n_outside_range = 0;
@@ -227,7 +245,7 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
                 0,
                 2,
             );
-            let (human_gait_scaled, leg_scale) = human_gait(&prep, &names, &robot, rate)?;
+            let (human_gait_scaled, leg_scale) = human_gait(&prep, &names, robot, rate)?;
             Some(Hoap2 {
                 robot_gait,
                 human_gait_scaled,
@@ -279,6 +297,7 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
         portrait_from_s: from as f64 / rate,
         portraits,
         last10_units,
+        view: Some(view),
         trained: Some(m),
     })
 }

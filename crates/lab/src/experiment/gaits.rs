@@ -94,6 +94,10 @@ pub struct GaitsResult {
     /// Figure traces of the first seed.
     #[serde(skip)]
     pub fig4: Fig4,
+    /// The first seed's smooth switching run: teacher, model and (when the
+    /// configuration names a robot) the robot, for `cpg_view`.
+    #[serde(skip)]
+    pub view: Option<cpg_view::Scene>,
 }
 
 /// Fraction of seeds that must pass.
@@ -179,8 +183,14 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
             passed,
         }
     };
+    let robot = match &g.robot {
+        Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
+        None => None,
+    };
     progress.start("switching runs", seeds.len() as u64);
-    let per_seed: Result<Vec<(GaitsSeed, Option<Fig4>)>> = seeds
+    // Each seed's result; the first seed's figure traces and view.
+    type SeedOut = (GaitsSeed, Option<(Fig4, cpg_view::Scene)>);
+    let per_seed: Result<Vec<SeedOut>> = seeds
         .par_iter()
         .zip(&models)
         .enumerate()
@@ -202,9 +212,9 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
                 && first_again.passed
                 && settle.iter().all(|s| s.is_some_and(|v| v <= SETTLE_S))
                 && max_jump_smooth <= data_step;
-            let fig = (i == 0).then(|| {
+            let fig = if i == 0 {
                 let three = (GAIT_WINDOW_S * rate) as usize;
-                Fig4 {
+                let fig4 = Fig4 {
                     teachers: [ta, tb]
                         .iter()
                         .map(|t| {
@@ -216,8 +226,25 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
                     abrupt: column(&ya, d, 0),
                     smooth_control: last_control(&smooth, n, rate),
                     abrupt_control: last_control(&abrupt, n, rate),
-                }
-            });
+                };
+                let units: Vec<f64> =
+                    ys.iter().enumerate().map(|(k, v)| v * m.outputs[k % d].std + m.outputs[k % d].mean).collect();
+                let view = crate::scene::run_scene(
+                    &super::view_title(c),
+                    m,
+                    &smooth,
+                    0,
+                    &units,
+                    robot.as_ref().map(|(r, map)| crate::scene::RobotView {
+                        robot: r,
+                        map,
+                        acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+                    }),
+                )?;
+                Some((fig4, view))
+            } else {
+                None
+            };
             progress.tick();
             Ok((
                 GaitsSeed {
@@ -236,7 +263,10 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
         .collect();
     progress.finish();
     let per_seed = per_seed?;
-    let fig4 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
+    let (fig4, view) = match per_seed.iter().find_map(|(_, f)| f.clone()) {
+        Some((f, v)) => (f, Some(v)),
+        None => (Fig4::default(), None),
+    };
     Ok(GaitsResult {
         header: header(c, &prep, models[0].reservoir.n_neurons())?,
         teachers: shapes.to_vec(),
@@ -246,5 +276,6 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
         run_s: g.run_s,
         seeds: per_seed.into_iter().map(|(s, _)| s).collect(),
         fig4,
+        view,
     })
 }

@@ -111,6 +111,16 @@ pub struct Header {
     pub n_neurons: usize,
 }
 
+/// The title of an experiment's view: `E5 (our protocol): walk/run switching …`.
+pub(crate) fn view_title(c: &Config) -> String {
+    match &c.experiment {
+        Some(e) => {
+            format!("{} ({} protocol): {}", e.id, if e.protocol == "paper" { "the paper's" } else { "our" }, e.title)
+        }
+        None => c.source.display().to_string(),
+    }
+}
+
 /// The results of one experiment configuration.
 #[derive(Debug, Clone, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

@@ -1,0 +1,116 @@
+//! `cpg view`: watch a model (teacher, free run, robot) or a recording, as a
+//! self-contained HTML page or an animated GIF.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use cpg_hoap2::{ChannelMap, Robot};
+use cpg_mocap::{Motion, Skeleton};
+use cpg_reservoir::TrainedCpg;
+use cpg_view::{Camera, Figure, GifOptions, Scene};
+
+use super::{asset, schedule, steps};
+use crate::output::{check_writable, write_output};
+
+/// `cpg view`'s arguments.
+pub struct View<'a> {
+    pub model: Option<&'a Path>,
+    pub control: Option<&'a str>,
+    pub control_file: Option<&'a Path>,
+    pub motion: Option<&'a Path>,
+    pub skeleton: Option<&'a Path>,
+    pub motion_rate_hz: f64,
+    pub seconds: f64,
+    pub robot: bool,
+    pub urdf: &'a Path,
+    pub map: &'a Path,
+    pub acceleration_rad_s2: f64,
+    pub output: &'a Path,
+    pub format: Option<&'a str>,
+    pub gif_seconds: f64,
+    pub fps: f64,
+    pub yaw_deg: f64,
+}
+
+pub fn run(a: View<'_>) -> anyhow::Result<()> {
+    let format = match a.format {
+        Some(f) => f.to_owned(),
+        None => match a.output.extension().and_then(|e| e.to_str()) {
+            Some("gif") => "gif".into(),
+            _ => "html".into(),
+        },
+    };
+    if !["html", "gif"].contains(&format.as_str()) {
+        bail!("--format {format}: expected html (a page to open in a browser) or gif");
+    }
+    if !(a.yaw_deg.is_finite() && (-360.0..=360.0).contains(&a.yaw_deg)) {
+        bail!("--yaw-deg {}: expected an angle from -360 to 360", a.yaw_deg);
+    }
+    let dest = check_writable(a.output)?;
+    let mut scene = match (a.model, a.motion) {
+        (Some(_), Some(_)) => bail!("give either --model or --motion, not both"),
+        (None, None) => {
+            bail!("give --model FILE.cpg (a trained CPG) or --motion FILE.amc with --skeleton (a recording)")
+        }
+        (Some(model), None) => model_scene(&a, model)?,
+        (None, Some(motion)) => recording_scene(&a, motion)?,
+    };
+    scene.camera = Camera { yaw_deg: a.yaw_deg, ..Camera::default() };
+    let bytes = match format.as_str() {
+        "gif" => {
+            let opts = GifOptions { seconds: Some(a.gif_seconds), fps: a.fps, ..GifOptions::default() };
+            scene.to_gif(&opts)?
+        }
+        _ => scene.to_html().into_bytes(),
+    };
+    write_output(a.output, |w| Ok(w.write_all(&bytes)?))?;
+    let labels: Vec<&str> = scene.figures.iter().map(|f| f.label.as_str()).collect();
+    eprintln!(
+        "wrote {} ({} frames, {:.1} s at {} Hz: {}) to {}",
+        if format == "gif" { "an animated GIF" } else { "a self-contained HTML page" },
+        scene.n_frames(),
+        scene.n_frames() as f64 / scene.rate_hz,
+        scene.rate_hz,
+        labels.join(", "),
+        dest.describe()
+    );
+    Ok(())
+}
+
+fn model_scene(a: &View<'_>, model: &Path) -> anyhow::Result<Scene> {
+    let m = TrainedCpg::load(model)?;
+    let rate = m.provenance.sample_rate_hz;
+    let n = steps(a.seconds, rate, m.outputs.len())?;
+    let controls = schedule(&m, a.control, a.control_file)?;
+    let loaded;
+    let robot = if a.robot {
+        loaded = (Robot::from_urdf_file(&asset(a.urdf))?, ChannelMap::load(&asset(a.map))?);
+        Some(cpg_lab::scene::RobotView { robot: &loaded.0, map: &loaded.1, acceleration_rad_s2: a.acceleration_rad_s2 })
+    } else {
+        None
+    };
+    let title = model.file_name().map_or_else(|| model.display().to_string(), |f| f.to_string_lossy().into_owned());
+    cpg_lab::scene::model_scene(&title, &m, &controls, n, robot).with_context(|| format!("drawing {}", model.display()))
+}
+
+fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {
+    let Some(skeleton) = a.skeleton else { bail!("--motion needs --skeleton FILE.asf") };
+    let sk = Skeleton::from_file(skeleton)?;
+    let m = Motion::from_amc_file(motion, &sk, a.motion_rate_hz)?;
+    let n = steps(a.seconds, a.motion_rate_hz, m.n_channels())?.min(m.n_frames());
+    let m = m.slice(0, n)?;
+    let name = motion.file_name().map_or_else(|| motion.display().to_string(), |f| f.to_string_lossy().into_owned());
+    let mut figures = vec![Figure::human("recording", &sk, &m)?.with_note(format!("{n} frames of {name}"))];
+    if a.robot {
+        let robot = Robot::from_urdf_file(&asset(a.urdf))?;
+        let map = ChannelMap::load(&asset(a.map))?;
+        let t = map.apply(&robot, &m.channel_names(), m.values(), a.motion_rate_hz)?;
+        let t = t.limit(&robot, a.acceleration_rad_s2)?;
+        figures.push(Figure::robot(&cpg_lab::scene::robot_label(&robot), &robot, &t)?.with_note(format!(
+            "the recording mapped onto {} joints, within position, velocity and {} rad/s² limits; placed on the floor kinematically",
+            t.joints.len(),
+            a.acceleration_rad_s2
+        )));
+    }
+    Ok(Scene::new(&name, a.motion_rate_hz, figures)?)
+}
