@@ -55,6 +55,28 @@ pub fn amc(data: &[u8]) {
     assert_eq!(again.n_frames(), m.n_frames());
 }
 
+/// BVH: rejected, or a skeleton and motion whose kinematics are finite, and
+/// written BVH that parses back to the same marker positions (to 1e-6 mm
+/// per mm of the figure's size, as the values are written with 9 decimals).
+pub fn bvh(data: &[u8]) {
+    let opts = cpg_mocap::BvhOptions { length_unit_mm: Some(10.0) };
+    let Ok(b) = cpg_mocap::parse_bvh("fuzz.bvh", data, &opts) else { return };
+    assert!(b.motion.n_frames() >= 1);
+    assert!(b.motion.values().iter().all(|v| v.is_finite()), "non-finite value accepted");
+    let Ok(p) = b.skeleton.forward_kinematics(&b.motion) else { return };
+    for f in 0..p.n_frames() {
+        assert!(p.frame(f).iter().flatten().all(|v| v.is_finite()), "frame {f}: kinematics not finite");
+    }
+    let again = cpg_mocap::parse_asf("again.asf", cpg_mocap::write_asf(&b.skeleton).as_bytes())
+        .expect("the ASF of a BVH skeleton parses");
+    assert_eq!(again.bones.len(), b.skeleton.bones.len());
+    // Writing refuses what could not be read back (values beyond ±1e6); what it writes reads.
+    if let Ok(text) = cpg_mocap::write_bvh(&b.skeleton, &b.motion) {
+        let back = cpg_mocap::parse_bvh("again.bvh", text.as_bytes(), &opts).expect("written BVH parses");
+        assert_eq!(back.motion.n_frames(), b.motion.n_frames());
+    }
+}
+
 /// A TOML configuration: rejected, or accepted with every checked bound
 /// (the sizes it asks for are what `Config::check` allows).
 pub fn config(data: &[u8]) {

@@ -105,3 +105,44 @@ fn walking_feet_stay_on_one_floor() {
     assert!(travel > 2000.0, "travel {travel}");
     assert!(hi - lo < 60.0, "lowest foot point varies by {:.1} mm", hi - lo);
 }
+
+/// AMC → BVH → forward kinematics gives the AMC's own marker positions, to
+/// 1e-6 of the skeleton's length unit, for every frame of a real trial; the
+/// BVH's skeleton also survives an ASF round trip.
+#[test]
+fn amc_to_bvh_keeps_every_marker_of_35_01() {
+    let sk = skeleton35();
+    let m = motion35(&sk, "35_01.amc");
+    let text = cpg_mocap::write_bvh(&sk, &m).unwrap();
+    let bvh = cpg_mocap::parse_bvh("35_01.bvh", text.as_bytes(), &cpg_mocap::BvhOptions::default()).unwrap();
+    assert!(bvh.unit_inferred && bvh.length_unit_mm == 10.0, "written in centimetres: {}", bvh.length_unit_mm);
+    assert_eq!(bvh.motion.n_frames(), m.n_frames());
+    assert_eq!(bvh.motion.sample_rate_hz(), CMU_RATE_HZ);
+    let a = sk.forward_kinematics(&m).unwrap();
+    let b = bvh.skeleton.forward_kinematics(&bvh.motion).unwrap();
+    // An ASF bone ends where the BVH joint of its first child starts, or at its own End Site.
+    let point = |k: usize| -> usize {
+        let kids: Vec<&str> = sk.bones.iter().filter(|c| c.parent == Some(k)).map(|c| c.name.as_str()).collect();
+        let name =
+            if kids.len() > 1 { format!("{}_to_{}", sk.bones[k].name, kids[0]) } else { sk.bones[k].name.clone() };
+        b.point_index(&name).unwrap_or_else(|| panic!("no BVH point {name}"))
+    };
+    let pairs: Vec<(usize, usize)> = std::iter::once((0, b.point_index("root").unwrap()))
+        .chain((0..sk.bones.len()).map(|k| (k + 1, point(k))))
+        .collect();
+    let mut worst = 0.0f64;
+    for f in 0..a.n_frames() {
+        for &(i, j) in &pairs {
+            let d = (0..3).map(|c| (a.frame(f)[i][c] - b.frame(f)[j][c]).powi(2)).sum::<f64>().sqrt();
+            worst = worst.max(d);
+        }
+    }
+    let unit_mm = sk.mm_per_unit();
+    assert!(
+        worst < 1e-6 * unit_mm,
+        "largest marker difference {worst:e} mm, 1e-6 of the unit is {:e} mm",
+        1e-6 * unit_mm
+    );
+    let again = cpg_mocap::parse_asf("again.asf", cpg_mocap::write_asf(&bvh.skeleton).as_bytes()).unwrap();
+    assert_eq!(again, bvh.skeleton);
+}

@@ -13,9 +13,10 @@ use std::path::{Path, PathBuf};
 /// A fuzz target's check.
 type Check = fn(&[u8]);
 
-const TARGETS: [(&str, Check); 5] = [
+const TARGETS: [(&str, Check); 6] = [
     ("asf", checks::asf),
     ("amc", checks::amc),
+    ("bvh", checks::bvh),
     ("config", checks::config),
     ("model", checks::model),
     ("control_csv", checks::control_csv),

@@ -4,6 +4,7 @@
 //! measures; `cpg-mocap`, `cpg-reservoir`, `cpg-hoap2` below it).
 
 mod commands;
+mod npy;
 mod output;
 
 use std::path::PathBuf;
@@ -29,35 +30,35 @@ enum Command {
     ///
     /// For an ASF skeleton: units, root and the bone tree with each bone's
     /// degrees of freedom and limits. For an AMC motion (needs --skeleton):
-    /// frame count, duration and per-channel minimum, maximum and mean.
+    /// frame count, duration and per-channel minimum, maximum and mean. For a
+    /// BVH file: its length unit, the hierarchy as bones, and the motion.
     Inspect {
-        /// An .asf or .amc file.
+        /// An .asf, .amc or .bvh file.
         file: PathBuf,
         /// The skeleton (.asf) that an .amc file belongs to.
         #[arg(long, short)]
         skeleton: Option<PathBuf>,
-        /// Capture rate of the AMC file in Hz (AMC files do not store it; CMU uses 120).
-        #[arg(long, default_value_t = 120.0)]
-        rate_hz: f64,
+        #[command(flatten)]
+        rec: RecordingArgs,
     },
     /// Forward kinematics: world positions of the root and every bone end, in mm.
     ///
     /// Writes a CSV with columns frame, time_s, then POINT_x_mm, POINT_y_mm,
-    /// POINT_z_mm for the root and each bone (31 points for CMU skeletons).
-    /// The skeleton frame is y-up.
+    /// POINT_z_mm for the root and each bone (31 points for CMU skeletons);
+    /// or, for -o NAME.npy, a float64 array of frames × points × 3 (the point
+    /// names go to standard error). The skeleton frame is y-up.
     Fk {
-        /// The motion (.amc).
-        amc: PathBuf,
-        /// Its skeleton (.asf).
+        /// The motion: .amc (with --skeleton) or .bvh.
+        motion: PathBuf,
+        /// The skeleton (.asf) of an .amc motion.
         #[arg(long, short)]
-        skeleton: PathBuf,
-        /// Output CSV file (`-`: standard output; a file is written atomically, a
-        /// symlink's target likewise, a device or FIFO in place).
+        skeleton: Option<PathBuf>,
+        /// Output file, .csv or .npy (`-`: standard output; a file is written
+        /// atomically, a symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
-        /// Capture rate in Hz.
-        #[arg(long, default_value_t = 120.0)]
-        rate_hz: f64,
+        #[command(flatten)]
+        rec: RecordingArgs,
     },
     /// Train a CPG as a TOML configuration describes and write the model file.
     ///
@@ -78,21 +79,24 @@ enum Command {
         #[arg(long)]
         allow_unstable: bool,
     },
-    /// Run a trained CPG freely and write what it generates (CSV or AMC).
+    /// Run a trained CPG freely and write what it generates (CSV, NPY, AMC or BVH).
     ///
     /// CSV columns: time_s, then one per output channel in the training units
-    /// (degrees for rotation channels, suffix _deg). AMC uses the skeleton the
-    /// model was trained from.
+    /// (degrees for rotation channels, suffix _deg). NPY: a float64 array of
+    /// steps × channels in the same units. AMC and BVH use the skeleton the
+    /// model was trained from, with the channels it does not generate at 0 and
+    /// the figure put on the floor; BVH lengths are in centimetres.
     Generate {
         #[command(flatten)]
         run: RunArgs,
         /// Seconds to generate.
         #[arg(long, default_value_t = 30.0)]
         seconds: f64,
-        /// csv, or amc (playable in any ASF/AMC viewer).
-        #[arg(long, default_value = "csv")]
-        format: String,
-        /// A skeleton (.asf) for --format amc instead of the one stored in the model.
+        /// csv, npy, amc (any ASF/AMC viewer) or bvh (Blender and most
+        /// animation tools) [default: from the extension, else csv].
+        #[arg(long)]
+        format: Option<String>,
+        /// A skeleton (.asf) for --format amc or bvh instead of the one stored in the model.
         #[arg(long)]
         skeleton: Option<PathBuf>,
         /// Output file (`-`: standard output; a file is written atomically, a
@@ -109,7 +113,8 @@ enum Command {
     /// brakes in time. A table says, per joint, what each bound changed; a
     /// joint limited in more than 5 % of its frames is a warning (--strict: an
     /// error). Output: CSV (time_s, then every joint's angle in rad, then its
-    /// velocity in rad/s, then its acceleration in rad/s²), or a
+    /// velocity in rad/s, then its acceleration in rad/s²), NPY (a float64
+    /// array of frames × joints × (angle, velocity, acceleration)), or a
     /// trajectory_msgs/JointTrajectory as JSON or YAML.
     Hoap2 {
         #[command(flatten)]
@@ -126,8 +131,9 @@ enum Command {
         /// symlink's target likewise, a device or FIFO in place).
         #[arg(long, short)]
         output: PathBuf,
-        /// csv (positions, velocities, accelerations), json or yaml (a
-        /// trajectory_msgs/JointTrajectory) [default: from the extension, else csv].
+        /// csv (positions, velocities, accelerations), npy (the same as an
+        /// array), json or yaml (a trajectory_msgs/JointTrajectory) [default:
+        /// from the extension, else csv].
         #[arg(long)]
         format: Option<String>,
         /// Fail, writing nothing, when a joint is limited in more than 5 % of
@@ -216,7 +222,8 @@ enum Command {
     /// URDF driven by that run through the channel map, within its position,
     /// velocity and acceleration limits (a channel the model does not generate
     /// counts as 0 there too; --no-robot leaves the robot out). With --motion
-    /// and --skeleton: a recording and the HOAP-2 driven by it.
+    /// (and --skeleton for AMC): a recording, AMC or BVH, and the HOAP-2
+    /// driven by it.
     ///
     /// HTML (the default, or -o NAME.html): one self-contained file, no
     /// network, that plays at once, with play/pause, speed, a time slider and
@@ -232,15 +239,14 @@ enum Command {
         /// Control values over time: a CSV whose header names the control inputs, one row per step.
         #[arg(long)]
         control_file: Option<PathBuf>,
-        /// A recording (.amc) to watch instead of a model.
+        /// A recording to watch instead of a model: .amc (with --skeleton) or .bvh.
         #[arg(long)]
         motion: Option<PathBuf>,
-        /// The recording's skeleton (.asf).
+        /// The skeleton (.asf) of an .amc recording.
         #[arg(long, short)]
         skeleton: Option<PathBuf>,
-        /// Capture rate of the recording in Hz.
-        #[arg(long, default_value_t = 120.0)]
-        rate_hz: f64,
+        #[command(flatten)]
+        rec: RecordingArgs,
         /// Seconds shown (a recording: at most its length).
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
@@ -290,6 +296,19 @@ enum Command {
     },
 }
 
+/// How a recording is read.
+#[derive(Debug, clap::Args)]
+struct RecordingArgs {
+    /// Capture rate in Hz [default: 120 for AMC, which does not store it
+    /// (CMU uses 120); a BVH file's own frame time, which this must match].
+    #[arg(long)]
+    rate_hz: Option<f64>,
+    /// Millimetres per length unit of a BVH file [default: inferred from the
+    /// figure's size: metres, CMU units, inches, centimetres or millimetres].
+    #[arg(long)]
+    bvh_unit_mm: Option<f64>,
+}
+
 /// The robot a command drives: its URDF, the map onto its joints, and the acceleration bound.
 #[derive(Debug, clap::Args)]
 struct RobotArgs {
@@ -323,8 +342,12 @@ fn main() -> ExitCode {
     output::install_signal_cleanup();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Inspect { file, skeleton, rate_hz } => commands::inspect(&file, skeleton.as_deref(), rate_hz),
-        Command::Fk { amc, skeleton, output, rate_hz } => commands::fk(&amc, &skeleton, &output, rate_hz),
+        Command::Inspect { file, skeleton, rec } => {
+            commands::inspect(&file, skeleton.as_deref(), rec.rate_hz, rec.bvh_unit_mm)
+        }
+        Command::Fk { motion, skeleton, output, rec } => {
+            commands::fk(&motion, skeleton.as_deref(), &output, rec.rate_hz, rec.bvh_unit_mm)
+        }
         Command::Train { config, output, allow_unstable } => {
             commands::train(&config, output.as_deref(), allow_unstable)
         }
@@ -333,7 +356,7 @@ fn main() -> ExitCode {
             seconds,
             run.control.as_deref(),
             run.control_file.as_deref(),
-            &format,
+            format.as_deref(),
             skeleton.as_deref(),
             &output,
         ),
@@ -380,7 +403,7 @@ fn main() -> ExitCode {
             control_file,
             motion,
             skeleton,
-            rate_hz,
+            rec,
             seconds,
             no_robot,
             robot,
@@ -395,7 +418,8 @@ fn main() -> ExitCode {
             control_file: control_file.as_deref(),
             motion: motion.as_deref(),
             skeleton: skeleton.as_deref(),
-            motion_rate_hz: rate_hz,
+            motion_rate_hz: rec.rate_hz,
+            bvh_unit_mm: rec.bvh_unit_mm,
             seconds,
             robot: !no_robot,
             urdf: &robot.urdf,

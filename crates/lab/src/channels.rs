@@ -77,10 +77,14 @@ pub fn all_channels(skeleton: &Skeleton) -> Vec<String> {
     out
 }
 
-/// Expands names, globs and groups into channel names, in the given order.
+/// Expands names, globs and groups into channel names of `skeleton`, in the given order.
 /// The error says which entry matched nothing, or which channel came twice.
 pub fn expand(entries: &[String], skeleton: &Skeleton) -> Result<Vec<String>, String> {
-    let all = all_channels(skeleton);
+    expand_in(entries, &all_channels(skeleton))
+}
+
+/// [`expand`] against a list of available channel names (a motion without a skeleton).
+pub fn expand_in(entries: &[String], all: &[String]) -> Result<Vec<String>, String> {
     let mut out: Vec<String> = Vec::new();
     for (k, e) in entries.iter().enumerate() {
         let found: Vec<String> = if let Some(g) = group(e) {
@@ -91,12 +95,12 @@ pub fn expand(entries: &[String], skeleton: &Skeleton) -> Result<Vec<String>, St
             vec![e.clone()]
         };
         if found.is_empty() {
-            return Err(format!("channels[{k}] = \"{e}\" matches no channel of the skeleton"));
+            return Err(format!("channels[{k}] = \"{e}\" matches no channel of the motion"));
         }
         for c in found {
             if !all.contains(&c) {
                 return Err(format!(
-                    "channels[{k}]: '{c}' is not a channel of the skeleton (a channel is bone.dof, e.g. lfemur.rx; groups: legs, arms, hoap2)"
+                    "channels[{k}]: '{c}' is not a channel of the motion (a channel is bone.dof, e.g. lfemur.rx; groups: legs, arms, hoap2)"
                 ));
             }
             if out.contains(&c) {

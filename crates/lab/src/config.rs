@@ -40,9 +40,13 @@ pub struct Config {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DataSection {
-    /// The ASF skeleton.
-    pub skeleton: PathBuf,
-    /// Capture rate of the AMC files, Hz (AMC does not store it).
+    /// The ASF skeleton of AMC motions (BVH motions carry their own: leave it out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skeleton: Option<PathBuf>,
+    /// Millimetres per length unit of BVH motions (default: inferred from the figure's size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bvh_unit_mm: Option<f64>,
+    /// Capture rate of the motions, Hz (AMC does not store it; a BVH file's frame time must agree).
     #[serde(default = "default_rate")]
     pub rate_hz: f64,
     /// Channels to learn: names (`lfemur.rx`), globs (`lfemur.*`) or groups
@@ -83,7 +87,7 @@ pub struct DataSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentSection {
-    /// The AMC file.
+    /// The motion file: AMC (with `data.skeleton`) or BVH.
     pub motion: PathBuf,
     /// Control values held during this segment, one per control input.
     #[serde(default)]
@@ -659,7 +663,9 @@ impl Config {
             }
         };
         c.source = file.to_owned();
-        fix(&mut c.data.skeleton);
+        if let Some(p) = c.data.skeleton.as_mut() {
+            fix(p);
+        }
         fix(&mut c.output.model);
         for s in &mut c.data.segments {
             fix(&mut s.motion);
@@ -689,7 +695,9 @@ impl Config {
     pub fn to_toml(&self, dir: &Path) -> Result<String> {
         let mut c = self.clone();
         let rel = |p: &mut PathBuf| *p = relative_to(p, dir);
-        rel(&mut c.data.skeleton);
+        if let Some(p) = c.data.skeleton.as_mut() {
+            rel(p);
+        }
         rel(&mut c.output.model);
         for s in &mut c.data.segments {
             rel(&mut s.motion);
@@ -745,6 +753,30 @@ impl Config {
             if d.controls[..k].contains(name) {
                 return Err(bad(&format!("data.controls[{k}]"), format!("'{name}' is named twice")));
             }
+        }
+        let n_bvh = d.segments.iter().filter(|s| cpg_mocap::is_bvh(&s.motion)).count();
+        if n_bvh > 0 && n_bvh < d.segments.len() {
+            return Err(bad("data.segments", "mixes BVH and AMC motions; give one kind".into()));
+        }
+        match (&d.skeleton, n_bvh > 0) {
+            (None, false) => {
+                return Err(bad(
+                    "data.skeleton",
+                    "is missing: AMC motions need their ASF skeleton (skeleton = \"35.asf\")".into(),
+                ));
+            }
+            (Some(_), true) => {
+                return Err(bad(
+                    "data.skeleton",
+                    "is given, but BVH motions carry their own skeleton: leave it out".into(),
+                ));
+            }
+            _ => {}
+        }
+        if let Some(u) = d.bvh_unit_mm
+            && !(u.is_finite() && (1e-6..=1e6).contains(&u))
+        {
+            return Err(bad("data.bvh_unit_mm", format!("{u}; expected 1e-6 to 1e6 mm per BVH length unit")));
         }
         let tempo = d.tempo.as_ref();
         for (k, s) in d.segments.iter().enumerate() {

@@ -14,6 +14,8 @@
 //! - [`measure`]: one definition each of a rhythm's period and amplitude,
 //!   *decayed*, *accurate*, *converged*, and of recovery after a push.
 //! - [`tune`]: a seeded random search for settings that keep the rhythm.
+//! - [`stream`]: a trained CPG ticking at any rate, optionally mapped onto a
+//!   robot within its limits (`cpg stream`, the Python `Stream`).
 //! - [`scene`]: what a trained CPG looks like: teacher, model and robot as a
 //!   `cpg_view::Scene` (rendered as HTML or GIF by `cpg-view`).
 //! - [`experiment`]: E1–E6 of wyffels & Schrauwen (2009) and the comparison
@@ -42,6 +44,7 @@ pub mod measure;
 pub mod prepare;
 pub mod scene;
 pub mod schedule;
+pub mod stream;
 pub mod train;
 pub mod tune;
 

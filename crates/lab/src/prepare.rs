@@ -49,10 +49,10 @@ pub struct Prepared {
     pub cycles: Vec<SegmentCycle>,
     /// Each segment as recorded, normalised (`frames × D`).
     pub segments: Vec<Vec<f64>>,
-    /// The skeleton's ASF text.
-    pub skeleton_asf: String,
-    /// The parsed skeleton.
-    pub skeleton: Skeleton,
+    /// The skeleton's ASF text (for BVH motions, written from the hierarchy), if any.
+    pub skeleton_asf: Option<String>,
+    /// The parsed skeleton, if any.
+    pub skeleton: Option<Skeleton>,
     /// One line describing the data (stored in the model).
     pub description: String,
     /// Things the user should know (a possible harmonic, a large seam).
@@ -137,37 +137,116 @@ pub fn smooth_random(n: usize, every: usize, lo: f64, hi: f64, seed: u64) -> Vec
         .collect()
 }
 
-/// The motions of a configuration, read and normalised.
+/// Motions to learn from, one per segment of a configuration, as read (every
+/// channel they have, cut to the segment's frames): what [`prepare`] reads
+/// from the files, or what a caller holding the data in memory gives
+/// [`prepare_recorded`].
+#[derive(Debug, Clone)]
+pub struct Recorded {
+    /// The skeleton the motions belong to and its ASF text, if any (a model
+    /// trained without one cannot be drawn or exported as AMC or BVH).
+    pub skeleton: Option<(Skeleton, String)>,
+    /// One motion per `[[data.segments]]` entry, at `data.rate_hz`.
+    pub parts: Vec<Motion>,
+}
+
+/// Reads the motion files of a configuration: AMC with the ASF skeleton, or BVH.
+pub fn read_recorded(c: &Config) -> Result<Recorded> {
+    let d_sec = &c.data;
+    let cut = |m: Motion, s: &crate::config::SegmentSection| -> Result<Motion> {
+        Ok(match s.frames {
+            Some([a, b]) => m.slice(a, b)?,
+            None => m,
+        })
+    };
+    let mut parts = Vec::new();
+    let skeleton = match &d_sec.skeleton {
+        Some(path) => {
+            let bytes = cpg_mocap::read_bounded(path, cpg_mocap::MAX_INPUT_BYTES)?;
+            let sk = cpg_mocap::parse_asf(&path.display().to_string(), &bytes).map_err(cpg_mocap::Error::from)?;
+            for s in &d_sec.segments {
+                parts.push(cut(Motion::from_amc_file(&s.motion, &sk, d_sec.rate_hz)?, s)?);
+            }
+            // parse_asf accepted the bytes, so they are UTF-8.
+            (sk, String::from_utf8_lossy(&bytes).into_owned())
+        }
+        None => {
+            let opts = cpg_mocap::BvhOptions { length_unit_mm: d_sec.bvh_unit_mm };
+            let mut first: Option<Skeleton> = None;
+            for (k, s) in d_sec.segments.iter().enumerate() {
+                let b = cpg_mocap::Bvh::from_file(&s.motion, &opts)?;
+                let rate = b.motion.sample_rate_hz();
+                if (rate - d_sec.rate_hz).abs() > 1e-3 * d_sec.rate_hz {
+                    return Err(c.error(
+                        "data.rate_hz",
+                        format!(
+                            "is {} Hz, but {} holds frames every {} s ({rate} Hz): set data.rate_hz = {rate}",
+                            d_sec.rate_hz,
+                            s.motion.display(),
+                            b.frame_time_s
+                        ),
+                    ));
+                }
+                match &first {
+                    Some(sk) if sk.bones != b.skeleton.bones || sk.root != b.skeleton.root => {
+                        return Err(c.error(
+                            &format!("data.segments[{k}].motion"),
+                            format!("{}: its hierarchy differs from the first segment's", s.motion.display()),
+                        ));
+                    }
+                    Some(_) => {}
+                    None => first = Some(b.skeleton.clone()),
+                }
+                let m = Motion::new(b.motion.channels().to_vec(), b.motion.values().to_vec(), d_sec.rate_hz)?;
+                parts.push(cut(m, s)?);
+            }
+            let sk = first.ok_or_else(|| Error::Data("no segments".into()))?;
+            let asf = cpg_mocap::write_asf(&sk);
+            (sk, asf)
+        }
+    };
+    Ok(Recorded { skeleton: Some(skeleton), parts })
+}
+
+/// The motions of a configuration, with the channels selected and normalised.
 struct Read {
-    skeleton_asf: String,
-    skeleton: Skeleton,
     channels: Vec<String>,
     parts: Vec<Motion>,
     z: ZScore,
     labels: Vec<String>,
 }
 
-fn read(c: &Config) -> Result<Read> {
+fn select(c: &Config, rec: &Recorded) -> Result<Read> {
     let d_sec = &c.data;
-    let bytes = cpg_mocap::read_bounded(&d_sec.skeleton, cpg_mocap::MAX_INPUT_BYTES)?;
-    let skeleton =
-        cpg_mocap::parse_asf(&d_sec.skeleton.display().to_string(), &bytes).map_err(cpg_mocap::Error::from)?;
-    // parse_asf accepted the bytes, so they are UTF-8.
-    let skeleton_asf = String::from_utf8_lossy(&bytes).into_owned();
-    let channels = crate::channels::expand(&d_sec.channels, &skeleton).map_err(|m| c.error("data.channels", m))?;
+    if rec.parts.len() != d_sec.segments.len() {
+        return Err(Error::Data(format!(
+            "{} motions for {} [[data.segments]] entries",
+            rec.parts.len(),
+            d_sec.segments.len()
+        )));
+    }
+    let all: Vec<String> = match &rec.skeleton {
+        Some((sk, _)) => crate::channels::all_channels(sk),
+        None => rec.parts.first().map(Motion::channel_names).unwrap_or_default(),
+    };
+    let channels = crate::channels::expand_in(&d_sec.channels, &all).map_err(|m| c.error("data.channels", m))?;
     let names: Vec<&str> = channels.iter().map(String::as_str).collect();
-    let mut parts = Vec::new();
-    for s in &d_sec.segments {
-        let m = Motion::from_amc_file(&s.motion, &skeleton, d_sec.rate_hz)?.select(&names)?;
-        parts.push(match s.frames {
-            Some([a, b]) => m.slice(a, b)?,
-            None => m,
-        });
+    let mut parts = Vec::with_capacity(rec.parts.len());
+    for (k, m) in rec.parts.iter().enumerate() {
+        if m.sample_rate_hz() != d_sec.rate_hz {
+            return Err(Error::Data(format!(
+                "segment {}: {} Hz, the configuration says {} Hz (data.rate_hz)",
+                k + 1,
+                m.sample_rate_hz(),
+                d_sec.rate_hz
+            )));
+        }
+        parts.push(m.select(&names)?);
     }
     let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
     let z = ZScore::fit(&all)?;
     let labels = d_sec.segments.iter().map(|s| s.label.clone().unwrap_or_else(|| file_name(&s.motion))).collect();
-    Ok(Read { skeleton_asf, skeleton, channels, parts, z, labels })
+    Ok(Read { channels, parts, z, labels })
 }
 
 /// One seamless loop per segment (normalised, rotated to start at the
@@ -377,7 +456,14 @@ fn recorded_sequences(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<S
 
 /// Reads, normalises and loops the data of a configuration.
 pub fn prepare(c: &Config) -> Result<Prepared> {
-    let r = read(c)?;
+    prepare_recorded(c, read_recorded(c)?)
+}
+
+/// [`prepare`] with the motions already in memory (the configuration's
+/// `data.skeleton` and segment files are not read; its channels, controls,
+/// loops and training settings apply as they would to the files').
+pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
+    let r = select(c, &rec)?;
     let d = r.channels.len();
     let u = c.data.controls.len();
     let orbit = c.training.score == "orbit";
@@ -450,8 +536,8 @@ pub fn prepare(c: &Config) -> Result<Prepared> {
             .iter()
             .map(|m| r.z.apply(m).map(|m| m.values().to_vec()))
             .collect::<std::result::Result<_, _>>()?,
-        skeleton_asf: r.skeleton_asf,
-        skeleton: r.skeleton,
+        skeleton_asf: rec.skeleton.as_ref().map(|s| s.1.clone()),
+        skeleton: rec.skeleton.map(|s| s.0),
         description,
         notes,
     })

@@ -139,7 +139,11 @@ pub fn train_prepared(c: &Config, p: &Prepared, seed: u64) -> Result<TrainedCpg>
         p.description.clone(),
         c.data.rate_hz,
     )?;
-    Ok(model.with_teachers(p.teachers.clone())?.with_skeleton(p.skeleton_asf.clone()))
+    let model = model.with_teachers(p.teachers.clone())?;
+    Ok(match &p.skeleton_asf {
+        Some(asf) => model.with_skeleton(asf.clone()),
+        None => model,
+    })
 }
 
 /// Prepares the data of `c` and trains with its own seed.

@@ -115,7 +115,7 @@ fn a_configuration_written_back_reads_the_same() {
     std::fs::write(&path, &text).unwrap();
     let again = Config::load(&path).unwrap();
     let canon = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_owned());
-    assert_eq!(canon(&again.data.skeleton), canon(&c.data.skeleton));
+    assert_eq!(canon(again.data.skeleton.as_ref().unwrap()), canon(c.data.skeleton.as_ref().unwrap()));
     assert_eq!(canon(&again.data.segments[1].motion), canon(&c.data.segments[1].motion));
     let robot =
         |c: &Config| c.experiment.as_ref().and_then(|e| e.gaits.as_ref()).and_then(|g| g.robot.clone()).unwrap();

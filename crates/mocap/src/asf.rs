@@ -391,3 +391,66 @@ fn parse_hierarchy(
         }
     }
 }
+
+/// Writes a skeleton as ASF text that [`parse_asf`] reads back to the same
+/// skeleton (angles in degrees; numbers in their shortest exact form).
+pub fn write_asf(sk: &Skeleton) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from("# ASF written by cpg-mocap\n:version 1.10\n");
+    let _ = writeln!(s, ":name {}", if sk.name.trim().is_empty() { "skeleton" } else { sk.name.trim() });
+    let _ = writeln!(s, ":units\n  mass {}\n  length {}\n  angle deg", sk.units.mass, sk.units.length);
+    s.push_str(":documentation\n");
+    for line in sk.documentation.lines() {
+        // A line that would read as a section or a comment is indented text only.
+        let line = line.trim_start_matches([':', '#']).trim();
+        if !line.is_empty() {
+            let _ = writeln!(s, "  {line}");
+        }
+    }
+    let order: Vec<String> = sk.root.order.iter().map(|d| d.as_str().to_ascii_uppercase()).collect();
+    let [px, py, pz] = sk.root.position;
+    let [ox, oy, oz] = sk.root.orientation_deg;
+    let _ = writeln!(
+        s,
+        ":root\n   order {}\n   axis {}\n   position {px} {py} {pz}\n   orientation {ox} {oy} {oz}",
+        order.join(" "),
+        sk.root.axis.as_string()
+    );
+    s.push_str(":bonedata\n");
+    for (k, b) in sk.bones.iter().enumerate() {
+        let [dx, dy, dz] = b.direction;
+        let [ax, ay, az] = b.axis_deg;
+        let _ = writeln!(
+            s,
+            "  begin\n     id {}\n     name {}\n     direction {dx} {dy} {dz}\n     length {}\n     axis {ax} {ay} {az} {}",
+            if b.id == 0 { k as u32 + 1 } else { b.id },
+            b.name,
+            b.length,
+            b.axis_order.as_string()
+        );
+        if !b.dofs.is_empty() {
+            let dofs: Vec<&str> = b.dofs.iter().map(|d| d.as_str()).collect();
+            let _ = writeln!(s, "    dof {}", dofs.join(" "));
+            for (i, (lo, hi)) in b.limits.iter().enumerate() {
+                let _ = writeln!(s, "    {}({lo} {hi})", if i == 0 { "limits " } else { "       " });
+            }
+        }
+        s.push_str("  end\n");
+    }
+    s.push_str(":hierarchy\n  begin\n");
+    let children = |p: Option<usize>| -> Vec<&str> {
+        sk.bones.iter().filter(|b| b.parent == p).map(|b| b.name.as_str()).collect()
+    };
+    let top = children(None);
+    if !top.is_empty() {
+        let _ = writeln!(s, "    root {}", top.join(" "));
+    }
+    for (k, b) in sk.bones.iter().enumerate() {
+        let c = children(Some(k));
+        if !c.is_empty() {
+            let _ = writeln!(s, "    {} {}", b.name, c.join(" "));
+        }
+    }
+    s.push_str("  end\n");
+    s
+}

@@ -101,7 +101,7 @@ fn dofs(d: &[Dof]) -> String {
 #[non_exhaustive]
 pub enum ParseErrorKind {
     /// The bytes are not UTF-8 text (binary garbage, wrong encoding).
-    #[error("not UTF-8 text (byte {byte_offset}); expected an ASCII Acclaim file")]
+    #[error("not UTF-8 text (byte {byte_offset}); expected a text motion-capture file (ASF, AMC or BVH)")]
     NotUtf8 {
         /// Offset of the first invalid byte.
         byte_offset: usize,

@@ -11,11 +11,11 @@
 use crate::error::{Error, Result};
 use crate::{AxisOrder, Dof, Motion, Skeleton};
 
-type M3 = [[f64; 3]; 3];
+pub(crate) type M3 = [[f64; 3]; 3];
 
 const I3: M3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
-fn rot(axis: usize, deg: f64) -> M3 {
+pub(crate) fn rot(axis: usize, deg: f64) -> M3 {
     let (s, c) = deg.to_radians().sin_cos();
     match axis {
         0 => [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]],
@@ -24,7 +24,7 @@ fn rot(axis: usize, deg: f64) -> M3 {
     }
 }
 
-fn mul(a: &M3, b: &M3) -> M3 {
+pub(crate) fn mul(a: &M3, b: &M3) -> M3 {
     let mut r = [[0.0; 3]; 3];
     for i in 0..3 {
         for j in 0..3 {
@@ -34,7 +34,7 @@ fn mul(a: &M3, b: &M3) -> M3 {
     r
 }
 
-fn transpose(a: &M3) -> M3 {
+pub(crate) fn transpose(a: &M3) -> M3 {
     let mut r = [[0.0; 3]; 3];
     for i in 0..3 {
         for j in 0..3 {
@@ -53,7 +53,7 @@ fn apply(a: &M3, v: [f64; 3]) -> [f64; 3] {
 }
 
 /// The axis frame `C` for angles in degrees applied in `order`.
-fn axis_frame(angles_deg: [f64; 3], order: AxisOrder) -> M3 {
+pub(crate) fn axis_frame(angles_deg: [f64; 3], order: AxisOrder) -> M3 {
     let mut c = I3;
     for &a in &order.0 {
         c = mul(&rot(a, angles_deg[a]), &c);

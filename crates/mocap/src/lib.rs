@@ -1,8 +1,8 @@
 //! # cpg-mocap
 //!
 //! Reads and writes Acclaim ASF/AMC motion-capture files (the format of the CMU
-//! Graphics Lab database), holds motions as frames × named channels, and computes
-//! forward kinematics in millimetres.
+//! Graphics Lab database) and BVH files ([`bvh`]), holds motions as frames ×
+//! named channels, and computes forward kinematics in millimetres.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), cpg_mocap::Error> {
@@ -23,6 +23,7 @@
 
 mod amc;
 mod asf;
+pub mod bvh;
 pub mod cycle;
 pub mod data;
 mod error;
@@ -32,7 +33,8 @@ mod lex;
 mod motion;
 
 pub use amc::{parse_amc, write_amc};
-pub use asf::parse_asf;
+pub use asf::{parse_asf, write_asf};
+pub use bvh::{Bvh, BvhOptions, parse_bvh, write_bvh};
 pub use error::{Error, ParseError, ParseErrorKind, Result};
 pub use kinematics::Positions;
 pub use lex::MAX_MAGNITUDE;
@@ -294,4 +296,80 @@ impl Skeleton {
 /// The file name used in error messages: the last path component.
 pub(crate) fn file_label(path: &Path) -> String {
     path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| path.display().to_string())
+}
+
+/// The format a recording was read from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Format {
+    /// An AMC motion with its ASF skeleton.
+    Amc,
+    /// A BVH file: skeleton and motion in one.
+    Bvh {
+        /// Millimetres per length unit.
+        length_unit_mm: f64,
+        /// Whether the unit was inferred from the figure's size.
+        inferred: bool,
+    },
+}
+
+/// A motion and the skeleton it moves, read from a file of either format.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// The skeleton (for BVH, built from the hierarchy: see [`bvh`]).
+    pub skeleton: Skeleton,
+    /// The motion.
+    pub motion: Motion,
+    /// What it was read from.
+    pub format: Format,
+}
+
+/// Whether `path` names a BVH file (by its extension, in any case).
+pub fn is_bvh(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("bvh"))
+}
+
+/// Reads a recording: an AMC file with its ASF `skeleton` (at `rate_hz`,
+/// which AMC does not store; 120 Hz when `None`), or a BVH file (no
+/// skeleton; its own frame time, which `rate_hz`, when given, must match
+/// within 0.1 %).
+pub fn read_recording(
+    path: &Path,
+    skeleton: Option<&Path>,
+    rate_hz: Option<f64>,
+    bvh: &BvhOptions,
+) -> Result<Recording> {
+    if is_bvh(path) {
+        if let Some(s) = skeleton {
+            return Err(Error::InvalidArgument(format!(
+                "{} is a BVH file, which carries its own skeleton; {} is not needed",
+                file_label(path),
+                s.display()
+            )));
+        }
+        let b = Bvh::from_file(path, bvh)?;
+        let rate = b.motion.sample_rate_hz();
+        if let Some(r) = rate_hz
+            && (r - rate).abs() > 1e-3 * rate
+        {
+            return Err(Error::InvalidArgument(format!(
+                "{}: its frames are {} s apart ({rate} Hz), not {r} Hz as asked",
+                file_label(path),
+                b.frame_time_s
+            )));
+        }
+        return Ok(Recording {
+            skeleton: b.skeleton,
+            motion: b.motion,
+            format: Format::Bvh { length_unit_mm: b.length_unit_mm, inferred: b.unit_inferred },
+        });
+    }
+    let Some(s) = skeleton else {
+        return Err(Error::InvalidArgument(format!(
+            "{} is an AMC motion: give its ASF skeleton (--skeleton FILE.asf)",
+            file_label(path)
+        )));
+    };
+    let sk = Skeleton::from_file(s)?;
+    let motion = Motion::from_amc_file(path, &sk, rate_hz.unwrap_or(120.0))?;
+    Ok(Recording { skeleton: sk, motion, format: Format::Amc })
 }

@@ -2,15 +2,32 @@
 
 use std::path::Path;
 
-use cpg_mocap::{Motion, Skeleton};
-
 use crate::output::{Destination, write_output};
 
-pub fn run(amc: &Path, skeleton: &Path, output: &Path, rate_hz: f64) -> anyhow::Result<()> {
-    let sk = Skeleton::from_file(skeleton)?;
-    let m = Motion::from_amc_file(amc, &sk, rate_hz)?;
-    let p = sk.forward_kinematics(&m)?;
+pub fn run(
+    motion: &Path,
+    skeleton: Option<&Path>,
+    output: &Path,
+    rate_hz: Option<f64>,
+    bvh_unit_mm: Option<f64>,
+) -> anyhow::Result<()> {
     let dest = crate::output::check_writable(output)?;
+    let r =
+        cpg_mocap::read_recording(motion, skeleton, rate_hz, &cpg_mocap::BvhOptions { length_unit_mm: bvh_unit_mm })?;
+    let p = r.skeleton.forward_kinematics(&r.motion)?;
+    if crate::npy::is_npy(output) {
+        write_output(output, |w| {
+            crate::npy::write_npy(w, &[p.n_frames(), p.names.len(), 3], p.points_mm.iter().flatten().copied())
+        })?;
+        eprintln!(
+            "wrote {} frames × {} points × 3 (x, y, z in mm; points: {}) to {}",
+            p.n_frames(),
+            p.names.len(),
+            p.names.join(", "),
+            Destination::describe(&dest)
+        );
+        return Ok(());
+    }
     write_output(output, |w| {
         write!(w, "frame,time_s")?;
         for n in &p.names {

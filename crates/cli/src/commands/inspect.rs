@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use cpg_mocap::{Motion, Skeleton};
 
-pub fn run(file: &Path, skeleton: Option<&Path>, rate_hz: f64) -> anyhow::Result<()> {
+pub fn run(file: &Path, skeleton: Option<&Path>, rate_hz: Option<f64>, bvh_unit_mm: Option<f64>) -> anyhow::Result<()> {
     let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let out = std::io::stdout();
     let mut out = out.lock();
@@ -17,10 +17,27 @@ pub fn run(file: &Path, skeleton: Option<&Path>, rate_hz: f64) -> anyhow::Result
                 bail!("{} is a motion file: give its skeleton with --skeleton <file.asf>", file.display());
             };
             let sk = Skeleton::from_file(sk)?;
-            let m = Motion::from_amc_file(file, &sk, rate_hz)?;
+            let m = Motion::from_amc_file(file, &sk, rate_hz.unwrap_or(120.0))?;
             motion_summary(&mut out, file, &m)
         }
-        _ => bail!("{}: expected an .asf or .amc file", file.display()),
+        Some("bvh") => {
+            let r = cpg_mocap::read_recording(
+                file,
+                skeleton,
+                rate_hz,
+                &cpg_mocap::BvhOptions { length_unit_mm: bvh_unit_mm },
+            )?;
+            if let cpg_mocap::Format::Bvh { length_unit_mm, inferred } = r.format {
+                writeln!(
+                    out,
+                    "BVH: {length_unit_mm} mm per length unit ({})",
+                    if inferred { "inferred from the figure's size; --bvh-unit-mm sets it" } else { "as given" }
+                )?;
+            }
+            skeleton_tree(&mut out, &r.skeleton)?;
+            motion_summary(&mut out, file, &r.motion)
+        }
+        _ => bail!("{}: expected an .asf, .amc or .bvh file", file.display()),
     }
 }
 

@@ -207,23 +207,42 @@ fn unit_suffix(name: &str) -> &'static str {
     if name.ends_with(".rx") || name.ends_with(".ry") || name.ends_with(".rz") { "_deg" } else { "" }
 }
 
+/// The format an output is written in: `--format` when given, else the
+/// output's extension when it is one of `known`, else `default`.
+fn output_format(format: Option<&str>, output: &Path, known: &[&str], default: &str) -> anyhow::Result<String> {
+    let f = match format {
+        Some(f) => f.to_ascii_lowercase(),
+        None => output
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .filter(|e| known.contains(&e.as_str()))
+            .unwrap_or_else(|| default.to_owned()),
+    };
+    if !known.contains(&f.as_str()) {
+        bail!("--format {f}: expected {}", known.join(", "));
+    }
+    Ok(f)
+}
+
 /// `cpg generate`.
 pub fn generate(
     model: &Path,
     seconds: f64,
     control: Option<&str>,
     control_file: Option<&Path>,
-    format: &str,
+    format: Option<&str>,
     skeleton: Option<&Path>,
     output: &Path,
 ) -> anyhow::Result<()> {
+    let format = output_format(format, output, &["csv", "npy", "amc", "bvh"], "csv")?;
     let m = TrainedCpg::load(model)?;
     let rate = m.provenance.sample_rate_hz;
     let d = m.outputs.len();
     let n = steps(seconds, rate, d)?;
     let dest = check_writable(output)?;
     let controls = schedule(&m, control, control_file)?;
-    match format {
+    match format.as_str() {
         "csv" => {
             let y = run_units(&m, &controls, n)?;
             write_output(output, |w| {
@@ -242,14 +261,23 @@ pub fn generate(
                 Ok(())
             })?
         }
-        "amc" => {
+        "npy" => {
+            let y = run_units(&m, &controls, n)?;
+            write_output(output, |w| crate::npy::write_npy(w, &[n, d], y.iter().copied()))?;
+            let names: Vec<&str> = m.outputs.iter().map(|o| o.name.as_str()).collect();
+            eprintln!("columns: {} (degrees for rotation channels)", names.join(", "));
+        }
+        _ => {
             let sk = match (skeleton, &m.skeleton_asf) {
                 (Some(p), _) => Skeleton::from_file(p)?,
                 (None, Some(text)) => {
                     cpg_mocap::parse_asf(&format!("the skeleton stored in {}", model.display()), text.as_bytes())
                         .map_err(cpg_mocap::Error::from)?
                 }
-                (None, None) => bail!("{} stores no skeleton: give --skeleton FILE.asf", model.display()),
+                (None, None) => bail!(
+                    "{} stores no skeleton (it was trained from arrays): give --skeleton FILE.asf",
+                    model.display()
+                ),
             };
             let channels: Vec<Channel> = m
                 .outputs
@@ -262,12 +290,11 @@ pub fn generate(
             let y = run_units(&m, &controls, n)?;
             // Every channel, and a root on the floor when the model generates none.
             let motion = sk.ground(&Motion::new(channels, y, rate)?)?;
-            let text = write_amc(&sk, &motion)?;
+            let text = if format == "bvh" { cpg_mocap::write_bvh(&sk, &motion)? } else { write_amc(&sk, &motion)? };
             write_output(output, |w| Ok(w.write_all(text.as_bytes())?))?;
         }
-        other => bail!("--format {other}: expected csv or amc"),
     }
-    eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) to {}", dest.describe());
+    eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) as {format} to {}", dest.describe());
     Ok(())
 }
 
@@ -313,17 +340,11 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     let n = steps(a.seconds, rate, m.outputs.len())?;
     let out_rate = a.rate_hz.unwrap_or(rate);
     let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, a.seconds, map.entries.len())?;
+    let yml = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("yml"));
     let format = match a.format {
-        Some(f) => f.to_owned(),
-        None => match a.output.extension().and_then(|e| e.to_str()) {
-            Some("json") => "json".into(),
-            Some("yaml" | "yml") => "yaml".into(),
-            _ => "csv".into(),
-        },
+        None if yml => "yaml".to_owned(),
+        f => output_format(f, a.output, &["csv", "npy", "json", "yaml"], "csv")?,
     };
-    if !["csv", "json", "yaml"].contains(&format.as_str()) {
-        bail!("--format {format}: expected csv, json (trajectory_msgs/JointTrajectory) or yaml (the same)");
-    }
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
     // Two frames more than asked, so that the spline reaches the last output row.
@@ -334,6 +355,7 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     let text = match format.as_str() {
         "json" => t.to_ros_json(),
         "yaml" => t.to_ros_yaml(),
+        "npy" => String::new(),
         _ => t.to_csv(),
     };
     eprintln!(
@@ -375,7 +397,18 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         }
         eprintln!("warning: {msg} (--strict makes this an error)");
     }
-    write_output(a.output, |w| Ok(w.write_all(text.as_bytes())?))?;
+    if format == "npy" {
+        // frames × joints × (angle, velocity, acceleration).
+        let values =
+            (0..t.values_rad.len()).flat_map(|k| [t.values_rad[k], t.velocities_rad_s[k], t.accelerations_rad_s2[k]]);
+        write_output(a.output, |w| crate::npy::write_npy(w, &[t.n_frames(), t.joints.len(), 3], values))?;
+        eprintln!(
+            "npy: frames × joints × (angle rad, velocity rad/s, acceleration rad/s²); joints: {}",
+            t.joints.join(", ")
+        );
+    } else {
+        write_output(a.output, |w| Ok(w.write_all(text.as_bytes())?))?;
+    }
     eprintln!(
         "wrote {} frames ({} s at {} Hz) of {} HOAP-2 joints ({format}: positions rad, velocities rad/s, accelerations rad/s²) to {}",
         t.n_frames(),

@@ -8,9 +8,9 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
-use cpg_hoap2::{ChannelMap, Limiter, Robot};
+use cpg_hoap2::{ChannelMap, Robot};
 use cpg_lab::ControlSchedule;
-use cpg_reservoir::{Generator, TrainedCpg};
+use cpg_reservoir::TrainedCpg;
 
 /// What `cpg stream` was asked for.
 pub struct Stream<'a> {
@@ -93,30 +93,27 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
         (None, true) => Vec::new(),
         (None, false) => m.teachers.first().map(|t| t.controls.clone()).unwrap_or_else(|| vec![0.0; m.controls.len()]),
     };
-    let d = m.outputs.len();
     // Columns out: the model's channels (degrees), or the robot's joints (radians, limited).
-    let robot = match s.robot {
-        Some((urdf, map)) => {
-            let robot = Robot::from_urdf_file(urdf)?;
-            let map = ChannelMap::load(map)?;
-            let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
-            let plan = map.plan(&robot, &names)?;
-            let dt = 1.0 / rate;
-            let limiters: Vec<Limiter> =
-                plan.joints.iter().map(|j| Limiter::new(j.bounds(s.acceleration_rad_s2), dt)).collect();
-            Some((plan, limiters))
-        }
+    let loaded = match s.robot {
+        Some((urdf, map)) => Some((Robot::from_urdf_file(urdf)?, ChannelMap::load(map)?)),
         None => None,
     };
+    let target = loaded.as_ref().map(|(robot, map)| cpg_lab::stream::RobotTarget {
+        robot,
+        map,
+        acceleration_rad_s2: s.acceleration_rad_s2,
+    });
+    // Everything the loop touches is allocated here.
+    let mut ticker = cpg_lab::stream::Ticker::new(&m, rate, target)?;
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     write!(out, "time_s")?;
-    match &robot {
-        Some((plan, _)) => {
-            for j in &plan.joints {
-                write!(out, ",{}_rad", j.name)?;
+    match ticker.columns() {
+        joints if !joints.is_empty() => {
+            for j in joints {
+                write!(out, ",{j}_rad")?;
             }
         }
-        None => {
+        _ => {
             for o in &m.outputs {
                 write!(out, ",{}{}", o.name, super::unit_suffix(&o.name))?;
             }
@@ -129,19 +126,6 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     let (names, start) = (m.controls.clone(), controls.clone());
     std::thread::spawn(move || read_controls(names, start, tx));
 
-    // Everything the loop touches is allocated here.
-    let mut g = Generator::new(&m);
-    let mut previous = vec![0.0; d];
-    let mut current = g.step(&controls)?.to_vec();
-    let mut model_steps = 1u64;
-    let mut frame = vec![0.0; d];
-    let (mut plan_limiters, mut joint_out) = match robot {
-        Some((plan, limiters)) => {
-            let n = plan.joints.len();
-            (Some((plan, limiters)), vec![0.0; n])
-        }
-        None => (None, Vec::new()),
-    };
     let mut lateness = vec![0u32; MAX_LATENESS_US + 1];
     let mut missed = 0u64;
     let mut worst_us = 0u64;
@@ -161,20 +145,8 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
                 Input::Closed => stdin_open = false,
             }
         }
-        // The model runs at its own rate: this tick lies between outputs i and i + 1
-        // (output i is that of the (i + 1)-th step), linearly interpolated.
-        let t_s = tick as f64 / rate;
-        let model_pos = t_s * model_rate;
-        let i = model_pos.floor();
-        while (model_steps as f64) < i + 2.0 {
-            previous.copy_from_slice(&current);
-            current.copy_from_slice(g.step(&controls).context("the model diverged")?);
-            model_steps += 1;
-        }
-        let frac = model_pos - i;
-        for ((f, a), b) in frame.iter_mut().zip(&previous).zip(&current) {
-            *f = a + frac * (b - a);
-        }
+        let t_s = ticker.time_s();
+        let values = ticker.tick(&controls).context("the model diverged")?;
         if s.pacing {
             let deadline = start + period.mul_f64(tick as f64);
             wait_until(deadline);
@@ -187,18 +159,8 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
             }
         }
         write!(out, "{t_s:.6}")?;
-        match &mut plan_limiters {
-            Some((plan, limiters)) => {
-                plan.frame(&frame, &mut joint_out);
-                for (q, l) in joint_out.iter().zip(limiters.iter_mut()) {
-                    write!(out, ",{:.6}", l.step(*q))?;
-                }
-            }
-            None => {
-                for v in &frame {
-                    write!(out, ",{v:.6}")?;
-                }
-            }
+        for v in values {
+            write!(out, ",{v:.6}")?;
         }
         writeln!(out)?;
         out.flush()?;
@@ -228,19 +190,15 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     } else {
         eprintln!("{tick} ticks at {rate} Hz, unpaced (--no-pacing)");
     }
-    if let Some((plan, limiters)) = &plan_limiters {
-        for (j, l) in plan.joints.iter().zip(limiters) {
-            let c = l.counts;
-            if c.position + c.velocity + c.acceleration > 0 {
-                eprintln!(
-                    "{}: limited at {} tick(s) by position, {} by velocity, {} by acceleration; largest lag {:.2}°",
-                    j.name,
-                    c.position,
-                    c.velocity,
-                    c.acceleration,
-                    c.max_lag_rad.to_degrees()
-                );
-            }
+    for (name, c) in ticker.limit_counts() {
+        if c.position + c.velocity + c.acceleration > 0 {
+            eprintln!(
+                "{name}: limited at {} tick(s) by position, {} by velocity, {} by acceleration; largest lag {:.2}°",
+                c.position,
+                c.velocity,
+                c.acceleration,
+                c.max_lag_rad.to_degrees()
+            );
         }
     }
     Ok(())

@@ -5,7 +5,6 @@ use std::path::Path;
 
 use anyhow::{Context, bail};
 use cpg_hoap2::{ChannelMap, Robot};
-use cpg_mocap::{Motion, Skeleton};
 use cpg_reservoir::TrainedCpg;
 use cpg_view::{Camera, Figure, GifOptions, Scene};
 
@@ -19,7 +18,8 @@ pub struct View<'a> {
     pub control_file: Option<&'a Path>,
     pub motion: Option<&'a Path>,
     pub skeleton: Option<&'a Path>,
-    pub motion_rate_hz: f64,
+    pub motion_rate_hz: Option<f64>,
+    pub bvh_unit_mm: Option<f64>,
     pub seconds: f64,
     pub robot: bool,
     pub urdf: &'a Path,
@@ -94,17 +94,39 @@ fn model_scene(a: &View<'_>, model: &Path) -> anyhow::Result<Scene> {
 }
 
 fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {
-    let Some(skeleton) = a.skeleton else { bail!("--motion needs --skeleton FILE.asf") };
-    let sk = Skeleton::from_file(skeleton)?;
-    let m = Motion::from_amc_file(motion, &sk, a.motion_rate_hz)?;
-    let n = steps(a.seconds, a.motion_rate_hz, m.n_channels())?.min(m.n_frames());
-    let m = m.slice(0, n)?;
+    let r = cpg_mocap::read_recording(
+        motion,
+        a.skeleton,
+        a.motion_rate_hz,
+        &cpg_mocap::BvhOptions { length_unit_mm: a.bvh_unit_mm },
+    )?;
+    let rate = r.motion.sample_rate_hz();
+    let n = steps(a.seconds, rate, r.motion.n_channels())?.min(r.motion.n_frames());
+    let m = r.motion.slice(0, n)?;
     let name = motion.file_name().map_or_else(|| motion.display().to_string(), |f| f.to_string_lossy().into_owned());
-    let mut figures = vec![Figure::human("recording", &sk, &m)?.with_note(format!("{n} frames of {name}"))];
-    if a.robot {
+    let mut figures = vec![Figure::human("recording", &r.skeleton, &m)?.with_note(format!("{n} frames of {name}"))];
+    let names = m.channel_names();
+    let bvh = matches!(r.format, cpg_mocap::Format::Bvh { .. });
+    if a.robot && bvh {
+        eprintln!(
+            "note: the robot is left out: channel maps read AMC channels (rotations about each bone's ASF axes), and a BVH file's channels are rotations about world-aligned axes (docs/hoap2-map.md)"
+        );
+    }
+    let map = if a.robot && !bvh { Some(ChannelMap::load(&asset(a.map))?) } else { None };
+    let lacking: Vec<String> = map
+        .as_ref()
+        .map(|m| m.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).map(str::to_owned).collect())
+        .unwrap_or_default();
+    if !lacking.is_empty() {
+        eprintln!(
+            "note: the robot is left out: its map reads channels the recording lacks ({}{}); --map names another map",
+            lacking[..lacking.len().min(4)].join(", "),
+            if lacking.len() > 4 { ", …" } else { "" }
+        );
+    }
+    if let Some(map) = map.filter(|_| lacking.is_empty()) {
         let robot = Robot::from_urdf_file(&asset(a.urdf))?;
-        let map = ChannelMap::load(&asset(a.map))?;
-        let t = map.apply(&robot, &m.channel_names(), m.values(), a.motion_rate_hz)?;
+        let t = map.apply(&robot, &names, m.values(), rate)?;
         let t = t.limit(&robot, a.acceleration_rad_s2)?;
         figures.push(Figure::robot(&cpg_lab::scene::robot_label(&robot), &robot, &t)?.with_note(format!(
             "the recording mapped onto {} joints, within position, velocity and {} rad/s² limits; placed on the floor kinematically",
@@ -112,5 +134,5 @@ fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {
             a.acceleration_rad_s2
         )));
     }
-    Ok(Scene::new(&name, a.motion_rate_hz, figures)?)
+    Ok(Scene::new(&name, rate, figures)?)
 }

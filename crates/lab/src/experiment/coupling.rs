@@ -306,7 +306,7 @@ pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Pr
 /// the root (root rotation 0, y up, facing +z), lengths scaled to HOAP-2's
 /// legs; and the scale (HOAP-2's thigh + shank over the human's femur + tibia).
 fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Result<(Option<cpg_hoap2::Gait>, f64)> {
-    let sk = &prep.skeleton;
+    let Some(sk) = &prep.skeleton else { return Ok((None, f64::NAN)) };
     let bone = |n: &str| sk.bones.iter().find(|b| b.name == n).map(|b| b.length * sk.mm_per_unit() / 1000.0);
     let robot_leg = robot.joint("lleg_joint_4")?.origin_m[2].abs() + robot.joint("lleg_joint_5")?.origin_m[2].abs();
     let (Some(femur), Some(tibia), Some(seg)) = (bone("lfemur"), bone("ltibia"), prep.segments.first()) else {
