@@ -70,6 +70,7 @@ const RULES: &[(&str, &[&str])] = &[
         ],
     ),
     ("cpg-lab", &["cpg-cli", "anyhow", "clap", "indicatif", "plotters"]),
+    ("cpg-python", &["cpg-cli", "anyhow", "clap", "indicatif", "plotters"]),
 ];
 
 /// Checks the layering rules with `cargo tree`.
@@ -102,6 +103,7 @@ pub fn run() -> anyhow::Result<()> {
     layering()?;
     cmd("cargo", &["doc", "--workspace", "--no-deps"], &[("RUSTDOCFLAGS", "-D warnings")])?;
     test(&[])?;
+    crate::python::run()?;
     // A fixed seed: the same inputs on every CI run from a fresh clone.
     crate::fuzz::run(CI_FUZZ_SECONDS, &[], Some(1))
 }

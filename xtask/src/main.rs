@@ -6,6 +6,7 @@ mod ci;
 mod fetch;
 mod figures;
 mod fuzz;
+mod python;
 mod report;
 mod train;
 
@@ -33,8 +34,8 @@ enum Command {
     FetchData(fetch::Args),
     /// The checks CI runs, in this order: fmt, clippy (warnings denied), the
     /// crate layering rules (checked with `cargo tree`), the docs (warnings
-    /// denied), every test (after fetching the data), and each fuzz target
-    /// for 30 s.
+    /// denied), every test (after fetching the data), the Python package's
+    /// tests (`cargo xtask python`), and each fuzz target for 30 s.
     Ci,
     /// Fetch the data if needed, then run every test of the workspace.
     Test {
@@ -42,6 +43,11 @@ enum Command {
         #[arg(trailing_var_arg = true)]
         args: Vec<String>,
     },
+    /// Build the Python package (crates/python) into target/python-venv with
+    /// maturin, pytest, numpy and mujoco from PyPI, and run its tests
+    /// (crates/python/tests: the README's Python quick start, the same bits
+    /// as `cpg train`, the MuJoCo example).
+    Python,
     /// Train experiment configurations of experiments/ and save their models
     /// (the same models the report trains; `cpg train --config` does the same for one file).
     Train(train::TrainArgs),
@@ -90,6 +96,7 @@ fn main() -> std::process::ExitCode {
         Command::Fuzz { seconds, seed, targets } => fuzz::run(seconds, &targets, seed),
         Command::Bench { vs_reservoirpy } => bench::run(vs_reservoirpy),
         Command::Train(args) => train::run(&args),
+        Command::Python => python::run(),
         Command::Evaluate(args) => report::run(&args),
     };
     match result {

@@ -754,25 +754,6 @@ impl Config {
                 return Err(bad(&format!("data.controls[{k}]"), format!("'{name}' is named twice")));
             }
         }
-        let n_bvh = d.segments.iter().filter(|s| cpg_mocap::is_bvh(&s.motion)).count();
-        if n_bvh > 0 && n_bvh < d.segments.len() {
-            return Err(bad("data.segments", "mixes BVH and AMC motions; give one kind".into()));
-        }
-        match (&d.skeleton, n_bvh > 0) {
-            (None, false) => {
-                return Err(bad(
-                    "data.skeleton",
-                    "is missing: AMC motions need their ASF skeleton (skeleton = \"35.asf\")".into(),
-                ));
-            }
-            (Some(_), true) => {
-                return Err(bad(
-                    "data.skeleton",
-                    "is given, but BVH motions carry their own skeleton: leave it out".into(),
-                ));
-            }
-            _ => {}
-        }
         if let Some(u) = d.bvh_unit_mm
             && !(u.is_finite() && (1e-6..=1e6).contains(&u))
         {

@@ -300,3 +300,65 @@ pub fn free_run_with(
     }
     Ok(y)
 }
+
+/// One control setting of a model judged: what `cpg evaluate` prints and the
+/// Python package's `Model.evaluate` returns.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Judged {
+    /// The teacher it is judged against.
+    pub teacher: String,
+    /// Its control values.
+    pub controls: Vec<f64>,
+    /// The long free run against the teacher.
+    pub stability: Stability,
+    /// The paper's push (the fed-back output held at the cycle's maximum + 2 σ
+    /// for 50 ms after 2 s), against the teacher's orbit and an unperturbed twin.
+    pub recovery: Recovery,
+}
+
+/// Judges `model` by free runs of `steps` and the paper's push: at every
+/// control setting it was taught, or under `controls` against the teacher of
+/// the setting they end at.
+pub fn judge(model: &TrainedCpg, steps: usize, controls: Option<&ControlSchedule>) -> Result<Vec<Judged>> {
+    let rate = model.provenance.sample_rate_hz;
+    if model.teachers.is_empty() {
+        return Err(Error::Data(
+            "the model has no teacher cycle (it was not trained on a looped periodic signal), so there is nothing to compare its rhythm with"
+                .into(),
+        ));
+    }
+    let d = model.outputs.len();
+    let settings: Vec<(ControlSchedule, &Teacher)> = match controls {
+        None => model.teachers.iter().map(|t| (ControlSchedule::Constant(t.controls.clone()), t)).collect(),
+        Some(s) => {
+            let mut last = vec![0.0; model.controls.len()];
+            s.fill(usize::MAX / 2, rate, &mut last);
+            let t = model.teacher_for(&last).ok_or_else(|| Error::Data("no teacher".into()))?;
+            vec![(s.clone(), t)]
+        }
+    };
+    let mut out = Vec::with_capacity(settings.len());
+    for (s, t) in settings {
+        let p = t.cycle.len() / d;
+        let push = crate::experiment::stability::push_for(&crate::config::PushSection::default(), t, d, rate);
+        let release = push.at + push.len;
+        if steps < release + 4 * p {
+            return Err(Error::Data(format!(
+                "{:.1} s of free run is too short for the push at 2 s and 4 cycles after it ({:.1} s)",
+                steps as f64 / rate,
+                (release + 4 * p) as f64 / rate
+            )));
+        }
+        let y = free_run(model, &s, steps, None)?;
+        let after = (40 * p).min(steps - release);
+        let pushed = free_run(model, &s, release + after, Some(&push))?;
+        let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;
+        out.push(Judged {
+            teacher: t.label.clone(),
+            controls: t.controls.clone(),
+            stability: stability(&y, d, t, 0, rate),
+            recovery: rec,
+        });
+    }
+    Ok(out)
+}

@@ -153,6 +153,21 @@ pub struct Recorded {
 /// Reads the motion files of a configuration: AMC with the ASF skeleton, or BVH.
 pub fn read_recorded(c: &Config) -> Result<Recorded> {
     let d_sec = &c.data;
+    let n_bvh = d_sec.segments.iter().filter(|s| cpg_mocap::is_bvh(&s.motion)).count();
+    if n_bvh > 0 && n_bvh < d_sec.segments.len() {
+        return Err(c.error("data.segments", "mixes BVH and AMC motions; give one kind"));
+    }
+    match (&d_sec.skeleton, n_bvh > 0) {
+        (None, false) => {
+            return Err(
+                c.error("data.skeleton", "is missing: AMC motions need their ASF skeleton (skeleton = \"35.asf\")")
+            );
+        }
+        (Some(_), true) => {
+            return Err(c.error("data.skeleton", "is given, but BVH motions carry their own skeleton: leave it out"));
+        }
+        _ => {}
+    }
     let cut = |m: Motion, s: &crate::config::SegmentSection| -> Result<Motion> {
         Ok(match s.frames {
             Some([a, b]) => m.slice(a, b)?,

@@ -151,3 +151,50 @@ impl Ticker {
         }
     }
 }
+
+/// The joint trajectory of `seconds` of `m`'s free run under `controls` on
+/// `target`: mapped (every channel the map reads must be generated),
+/// clamped to the position ranges, resampled to `rate_hz` (default: the
+/// model's rate) by a natural cubic spline to exactly `seconds × rate_hz`
+/// frames, and kept within the velocity limits and the acceleration bound
+/// by the braking limiter: what `cpg hoap2` writes.
+pub fn joint_trajectory(
+    m: &TrainedCpg,
+    controls: &crate::ControlSchedule,
+    seconds: f64,
+    rate_hz: Option<f64>,
+    target: RobotTarget<'_>,
+) -> Result<cpg_hoap2::JointTrajectory> {
+    let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+    let missing: Vec<&str> = target.map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
+    if !missing.is_empty() {
+        return Err(Error::Data(format!(
+            "the model generates [{}]; the joint map also needs [{}] (train on those channels, or give a map that uses only the model's)",
+            names.join(", "),
+            missing.join(", ")
+        )));
+    }
+    let rate = m.provenance.sample_rate_hz;
+    let out_rate = rate_hz.unwrap_or(rate);
+    let d = m.outputs.len();
+    if !(seconds.is_finite() && seconds > 0.0) {
+        return Err(Error::Data(format!("{seconds} s: expected a positive duration")));
+    }
+    let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, seconds, target.map.entries.len())?;
+    let n = (seconds * rate).round() as usize;
+    if n == 0 || n.saturating_mul(d) > cpg_hoap2::MAX_VALUES {
+        return Err(Error::Data(format!(
+            "{seconds} s at {rate} Hz: expected at least one step and at most {} values",
+            cpg_hoap2::MAX_VALUES
+        )));
+    }
+    // Two frames more than asked, so that the spline reaches the last output row.
+    let mut y = crate::measure::free_run(m, controls, n + 2, None)?;
+    for (k, v) in y.iter_mut().enumerate() {
+        let o = &m.outputs[k % d];
+        *v = *v * o.std + o.mean;
+    }
+    let t = target.map.apply(target.robot, &names, &y, rate)?;
+    let t = t.resample(target.robot, out_rate, n_out)?;
+    Ok(t.limit(target.robot, target.acceleration_rad_s2)?)
+}

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use cpg_hoap2::{ChannelMap, Robot};
-use cpg_lab::measure::{free_run, recovery, stability};
+use cpg_lab::measure::free_run;
 use cpg_lab::{Config, ControlSchedule};
 use cpg_mocap::{Channel, Motion, Skeleton, write_amc};
 use cpg_reservoir::TrainedCpg;
@@ -327,19 +327,10 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     let m = TrainedCpg::load(a.model)?;
     let robot = Robot::from_urdf_file(&asset(a.urdf))?;
     let map = ChannelMap::load(&asset(a.map))?;
-    let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
-    let missing: Vec<&str> = map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
-    if !missing.is_empty() {
-        bail!(
-            "the model generates [{}]; the joint map also needs [{}] (train on those channels, or give a --map that uses only the model's)",
-            names.join(", "),
-            missing.join(", ")
-        );
-    }
     let rate = m.provenance.sample_rate_hz;
-    let n = steps(a.seconds, rate, m.outputs.len())?;
-    let out_rate = a.rate_hz.unwrap_or(rate);
-    let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, a.seconds, map.entries.len())?;
+    // The sizes are checked before anything runs.
+    steps(a.seconds, rate, m.outputs.len())?;
+    cpg_hoap2::JointTrajectory::check_rate(a.rate_hz.unwrap_or(rate), a.seconds, map.entries.len())?;
     let yml = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("yml"));
     let format = match a.format {
         None if yml => "yaml".to_owned(),
@@ -347,11 +338,8 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     };
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
-    // Two frames more than asked, so that the spline reaches the last output row.
-    let y = run_units(&m, &controls, n + 2)?;
-    let t = map.apply(&robot, &names, &y, rate)?;
-    let t = t.resample(&robot, out_rate, n_out).context("resampling")?;
-    let t = t.limit(&robot, a.acceleration_rad_s2)?;
+    let target = cpg_lab::stream::RobotTarget { robot: &robot, map: &map, acceleration_rad_s2: a.acceleration_rad_s2 };
+    let t = cpg_lab::stream::joint_trajectory(&m, &controls, a.seconds, a.rate_hz, target)?;
     let text = match format.as_str() {
         "json" => t.to_ros_json(),
         "yaml" => t.to_ros_yaml(),
@@ -420,15 +408,6 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One control setting judged by `cpg evaluate`.
-#[derive(serde::Serialize)]
-struct Judged {
-    teacher: String,
-    controls: Vec<f64>,
-    stability: cpg_lab::measure::Stability,
-    recovery: cpg_lab::measure::Recovery,
-}
-
 /// `cpg evaluate`.
 pub fn evaluate(
     model: &Path,
@@ -439,47 +418,13 @@ pub fn evaluate(
 ) -> anyhow::Result<()> {
     let m = TrainedCpg::load(model)?;
     let rate = m.provenance.sample_rate_hz;
-    if m.teachers.is_empty() {
-        bail!(
-            "{}: the model has no teacher cycle (it was not trained on a looped periodic signal), so there is nothing to compare its rhythm with",
-            model.display()
-        );
-    }
     let d = m.outputs.len();
     let n = steps(seconds, rate, d)?;
-    // The settings judged: the one given, or every teacher's.
-    let settings: Vec<(ControlSchedule, &cpg_reservoir::Teacher)> = match (control, control_file) {
-        (None, None) => m.teachers.iter().map(|t| (ControlSchedule::Constant(t.controls.clone()), t)).collect(),
-        _ => {
-            let s = schedule(&m, control, control_file)?;
-            let mut last = vec![0.0; m.controls.len()];
-            s.fill(usize::MAX / 2, rate, &mut last);
-            let t = m.teacher_for(&last).context("no teacher")?;
-            vec![(s, t)]
-        }
+    let given = match (control, control_file) {
+        (None, None) => None,
+        _ => Some(schedule(&m, control, control_file)?),
     };
-    let mut out = Vec::new();
-    for (s, t) in settings {
-        let p = t.cycle.len() / d;
-        let push = cpg_lab::experiment::stability::push_for(&cpg_lab::config::PushSection::default(), t, d, rate);
-        let release = push.at + push.len;
-        if n < release + 4 * p {
-            bail!(
-                "--seconds {seconds}: too short for the push at 2 s and 4 cycles after it ({:.1} s)",
-                (release + 4 * p) as f64 / rate
-            );
-        }
-        let y = free_run(&m, &s, n, None)?;
-        let after = (40 * p).min(n - release);
-        let pushed = free_run(&m, &s, release + after, Some(&push))?;
-        let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;
-        out.push(Judged {
-            teacher: t.label.clone(),
-            controls: t.controls.clone(),
-            stability: stability(&y, d, t, 0, rate),
-            recovery: rec,
-        });
-    }
+    let out = cpg_lab::measure::judge(&m, n, given.as_ref()).with_context(|| model.display().to_string())?;
     if json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());

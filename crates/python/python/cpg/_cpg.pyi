@@ -1,0 +1,158 @@
+"""Type stubs of the native module ``cpg._cpg`` (re-exported by ``cpg``)."""
+
+from os import PathLike
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, PathLike[str]]
+_F64 = npt.NDArray[np.float64]
+_Controls = Union[Sequence[float], npt.ArrayLike, None]
+
+__version__: str
+
+class CpgError(ValueError):
+    """An error of the cpg library, with the library's message."""
+
+class Motion:
+    """A motion: frames × channels at a sample rate, with its skeleton when read from a file."""
+
+    @property
+    def values(self) -> _F64:
+        """Frames × channels (degrees for rotations, skeleton units for translations)."""
+    @property
+    def channels(self) -> list[str]:
+        """Channel names (``bone.dof``), one per column."""
+    @property
+    def rate_hz(self) -> float: ...
+    @property
+    def n_frames(self) -> int: ...
+    @property
+    def format(self) -> str:
+        """``amc``, or ``bvh (… mm per unit)``."""
+    @property
+    def skeleton_asf(self) -> Optional[str]:
+        """The skeleton as ASF text."""
+    @property
+    def mm_per_unit(self) -> Optional[float]: ...
+    def forward_kinematics(self) -> tuple[_F64, list[str]]:
+        """(points, names): frames × points × 3 in mm (y up), the root and every bone's end."""
+    def select(self, channels: Sequence[str]) -> "Motion":
+        """The motion with only these channels, in this order."""
+    def save(self, path: _Path) -> None:
+        """Writes BVH (``.bvh``, centimetres) or AMC."""
+
+def read_motion(
+    path: _Path,
+    skeleton: Optional[_Path] = None,
+    rate_hz: Optional[float] = None,
+    bvh_unit_mm: Optional[float] = None,
+) -> Motion:
+    """Reads AMC (with its ASF ``skeleton``; 120 Hz unless ``rate_hz``) or BVH (its own frame time;
+    length unit ``bvh_unit_mm`` or inferred from the figure's size)."""
+
+class Generator:
+    """A model run one step at a time from its start state (allocation-free in Rust)."""
+
+    def step(self, control: Optional[_F64] = None, out: Optional[_F64] = None) -> _F64:
+        """One step: the channels for ``control`` (one value per control input); into ``out`` if given."""
+    @property
+    def steps(self) -> int: ...
+
+class Stream:
+    """A model at any tick rate (ticks between its steps interpolated), optionally as HOAP-2 joint angles."""
+
+    def tick(self, control: Optional[_F64] = None) -> _F64:
+        """One tick: channels, or joint angles (rad) within every limit."""
+    @property
+    def columns(self) -> list[str]: ...
+    @property
+    def time_s(self) -> float: ...
+    @property
+    def rate_hz(self) -> float: ...
+
+class Model:
+    """A trained CPG (the model files of ``cpg train``)."""
+
+    @property
+    def channels(self) -> list[str]: ...
+    @property
+    def controls(self) -> list[str]: ...
+    @property
+    def rate_hz(self) -> float: ...
+    @property
+    def n_neurons(self) -> int: ...
+    @property
+    def penalty(self) -> float: ...
+    @property
+    def validation_score(self) -> float: ...
+    @property
+    def data(self) -> str: ...
+    @property
+    def skeleton_asf(self) -> Optional[str]: ...
+    @property
+    def teachers(self) -> list[dict[str, Any]]:
+        """label, controls, period_steps, cycle (period × channels, in the channels' units)."""
+    def generate(self, steps: int, controls: _Controls = None) -> _F64:
+        """Free run: steps × channels. ``controls``: one value per input, or steps × inputs (the last row held);
+        default: the first teacher's setting."""
+    def generator(self) -> Generator: ...
+    def stream(
+        self,
+        rate_hz: float,
+        robot: bool = False,
+        urdf: Optional[_Path] = None,
+        map: Optional[str] = None,
+        acceleration_rad_s2: float = 100.0,
+    ) -> Stream: ...
+    def evaluate(self, seconds: float = 900.0, controls: _Controls = None) -> list[dict[str, Any]]:
+        """Free runs and the paper's push at every taught control setting: teacher, controls, stability, recovery."""
+    def hoap2(
+        self,
+        seconds: float,
+        rate_hz: Optional[float] = None,
+        controls: _Controls = None,
+        urdf: Optional[_Path] = None,
+        map: Optional[str] = None,
+        acceleration_rad_s2: float = 100.0,
+    ) -> dict[str, Any]:
+        """HOAP-2 commands: joints, rate_hz, positions_rad, velocities_rad_s, accelerations_rad_s2, limits."""
+    def to_bytes(self) -> bytes: ...
+    def save(self, path: _Path) -> None: ...
+    @staticmethod
+    def from_bytes(data: bytes, name: str = "<bytes>") -> "Model": ...
+
+def load(path: _Path) -> Model:
+    """Reads a model file."""
+
+def train(config: Union[_Path, dict[str, Any]]) -> Model:
+    """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields."""
+
+def fit(
+    y: Union[_F64, Sequence[_F64]],
+    rate_hz: float,
+    controls: Optional[Sequence[Sequence[float]]] = None,
+    channels: Optional[Sequence[str]] = None,
+    control_names: Optional[Sequence[str]] = None,
+    seed: int = 1,
+    config: Optional[dict[str, Any]] = None,
+) -> Model:
+    """Trains on arrays (time × channels), one per segment, each with its control values; z-scoring inside.
+    ``config`` overrides the data, reservoir and training sections (docs/config.md)."""
+
+def hoap2_urdf() -> str:
+    """The HOAP-2 URDF the package carries."""
+
+def robot_joints(urdf: Optional[_Path] = None) -> list[dict[str, Any]]:
+    """Joints of a URDF: name, parent, child, lower_rad, upper_rad, velocity_rad_s."""
+
+def map_hoap2(
+    values: _F64,
+    channels: Sequence[str],
+    rate_hz: float,
+    urdf: Optional[_Path] = None,
+    map: Optional[str] = None,
+    acceleration_rad_s2: float = 100.0,
+) -> dict[str, Any]:
+    """Channels (frames × channels, degrees) onto HOAP-2 joints within every limit."""

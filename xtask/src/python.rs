@@ -1,0 +1,60 @@
+//! `cargo xtask python`: installs the Python package (crates/python) into a
+//! virtual environment of its own, with what its tests need from the
+//! package registry (maturin, pytest, numpy, mujoco), and runs its tests.
+
+use anyhow::{Context, bail};
+
+use crate::ci::cmd;
+
+/// What the tests need from PyPI, beside the package's own dependencies.
+const TEST_PACKAGES: [&str; 4] = ["maturin>=1.7,<2", "pytest>=7", "numpy>=1.21", "mujoco>=3.2"];
+
+/// The environment: `target/python-venv` (never committed).
+pub fn venv() -> anyhow::Result<std::path::PathBuf> {
+    let root = crate::root();
+    let venv = root.join("target").join("python-venv");
+    let python = venv.join("bin").join("python");
+    if !python.exists() {
+        let found =
+            ["python3", "python"].into_iter().find(|p| std::process::Command::new(p).arg("--version").output().is_ok());
+        let Some(base) = found else { bail!("no python3 on PATH: the Python package needs Python 3.9 or later") };
+        cmd(base, &["-m", "venv", &venv.display().to_string()], &[])?;
+    }
+    let py = python.display().to_string();
+    let mut args = vec!["-m", "pip", "install", "--quiet", "--disable-pip-version-check"];
+    args.extend(TEST_PACKAGES);
+    cmd(&py, &args, &[]).context("installing the test dependencies from PyPI")?;
+    Ok(venv)
+}
+
+/// Builds and installs the package, then runs pytest on `crates/python/tests`
+/// (the `cpg` command they compare with is built first).
+pub fn run() -> anyhow::Result<()> {
+    crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the tests need")?;
+    let venv = venv()?;
+    let py = venv.join("bin").join("python").display().to_string();
+    cmd("cargo", &["build", "--quiet", "-p", "cpg-cli"], &[])?;
+    cmd(
+        &py,
+        &[
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "--force-reinstall",
+            "--no-deps",
+            "./crates/python",
+        ],
+        &[],
+    )
+    .context("building and installing the cpg Python package (maturin)")?;
+    let bin = crate::root().join("target").join("debug").join("cpg");
+    let bin = bin.display().to_string();
+    let venv_dir = venv.display().to_string();
+    cmd(
+        &py,
+        &["-m", "pytest", "-q", "crates/python/tests"],
+        &[("CPG_BIN", bin.as_str()), ("VIRTUAL_ENV", venv_dir.as_str())],
+    )
+}
