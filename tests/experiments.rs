@@ -126,8 +126,19 @@ fn e5_our_protocol_switches_gaits_both_ways() {
 
 #[test]
 fn e6_both_protocols_keep_the_phase_coupling() {
-    for name in ["e6", "e6-paper"] {
+    let names = ["e6", "e6-paper"];
+    let configs: Vec<Config> = names.iter().map(|n| config(n)).collect();
+    assert!(experiment::share_reservoirs(&configs[0], &configs[1]), "E6's two protocols draw the same reservoirs");
+    let refs: Vec<&Config> = configs.iter().collect();
+    // Run together (one pass over each seed's weights for both), every result
+    // is the one each configuration gives alone.
+    let together = experiment::run_together(&refs, Options { quick: true }, &Quiet).unwrap();
+    for (name, both) in names.into_iter().zip(together) {
         let Outcome::Coupling(r) = quick(name) else { panic!("{name} is a coupling experiment") };
+        let Outcome::Coupling(b) = both else { panic!("{name} together is a coupling experiment") };
+        assert_eq!(b.seeds, r.seeds, "{name}: every seed's result, alone and together");
+        assert_eq!(b.rows, r.rows, "{name}: the first seed's lag table, alone and together");
+        assert!(r.seeds.len() >= 2, "{name}: the quick run has several seeds");
         assert_eq!(r.rows.len(), 22);
         assert_eq!(r.header.n_neurons, 600, "{name}: the quick size");
         assert!(r.worst_drift < 0.05, "{name}: drift {}", r.worst_drift);

@@ -1,17 +1,56 @@
-//! `cargo xtask bench`: speed of the reservoir CPG, each figure beside a
-//! measured floor (the time to stream the weight matrix once). The data is
+//! `cargo xtask bench`: speed and memory of the reservoir CPG, each figure
+//! beside a floor measured in the same run.
+//!
+//! Five parts, in order: many streams per pass (batched free runs beside the
+//! multiply-add and weight-streaming floors), one stream on both cores, the
+//! E1 pipeline against ReservoirPy (`--vs-reservoirpy`), the throughput
+//! users feel (`cpg tune`, the full evaluation) and peak memory. The data is
 //! E1's, prepared from `experiments/e1-paper.toml`.
 
 use std::hint::black_box;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+use anyhow::{Context, ensure};
+use pulp::{Simd, WithSimd};
 
 use cpg_lab::prepare::{Prepared, prepare};
 use cpg_mocap::cycle::estimate_period;
 use cpg_regression::{PenaltyGrid, RidgePath};
+use cpg_reservoir::batch::{Run, free_runs};
 use cpg_reservoir::{
     Candidate, Generator, Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg, harvest,
     teacher_forced_states, train, validate,
 };
+
+/// `cargo xtask bench` options.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Also run E1's whole pipeline (harvest, 91-penalty sweep with one noise
+    /// draw, retrain, 100,000-step free run to CSV) with ReservoirPy 0.4.2 and
+    /// with cpg (`cpg train` + `cpg generate`), alternating, one pair per seed.
+    /// ReservoirPy runs in its own venv (`scripts/reservoirpy_e1.sh`, created
+    /// from PyPI on first use) with OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset.
+    #[arg(long)]
+    vs_reservoirpy: bool,
+    /// Pairs of the side-by-side run (seeds 1 to PAIRS).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=20))]
+    pairs: u64,
+    /// Leave out the timed full evaluation (`cargo xtask evaluate` with 10
+    /// seeds everywhere, about ten minutes on two cores).
+    #[arg(long)]
+    no_evaluate: bool,
+}
+
+/// The single-stream step of the baseline (main at d59c6ec, N = 300,
+/// f32, this machine): what the batched targets are multiples of.
+const BASELINE_STEP_S: f64 = 5.93e-6;
+/// The E1 pipeline's peak memory at d59c6ec, MiB: the memory target is 2× it.
+const BASELINE_E1_MIB: f64 = 17.6;
+/// Free-run steps of the E1 pipeline.
+const FREE_RUN_STEPS: usize = 100_000;
 
 /// Median time of one call of `f`: calls are batched so that a sample lasts
 /// at least 5 ms, and up to 15 samples (or 3 s) are taken after a warm-up call.
@@ -34,6 +73,19 @@ fn measure(mut f: impl FnMut()) -> Duration {
     samples[samples.len() / 2]
 }
 
+/// Median of three timed calls (for calls of a tenth of a second or more).
+fn median3(mut f: impl FnMut()) -> Duration {
+    let mut t: Vec<Duration> = (0..3)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed()
+        })
+        .collect();
+    t.sort();
+    t[1]
+}
+
 /// Sums every weight once, 16 lanes wide: the memory-bound floor of a step.
 fn stream<T: Copy + Default + std::ops::Add<Output = T>>(w: &[T]) -> T {
     let (chunks, tail) = w.as_chunks::<16>();
@@ -50,6 +102,76 @@ fn stream<T: Copy + Default + std::ops::Add<Output = T>>(w: &[T]) -> T {
     s
 }
 
+/// Time to stream `w` once, split into `threads` (1 or 2) contiguous parts
+/// read in parallel on the thread pool's cores.
+fn stream_time<T: Copy + Default + Send + Sync + std::ops::Add<Output = T>>(w: &[T], threads: usize) -> Duration {
+    if threads < 2 {
+        return measure(|| {
+            black_box(stream(black_box(w)));
+        });
+    }
+    let (a, b) = w.split_at(w.len() / 2);
+    measure(|| {
+        black_box(rayon::join(|| stream(black_box(a)), || stream(black_box(b))));
+    })
+}
+
+/// Twelve independent chains of fused multiply-adds on full vectors: the
+/// machine's multiply-add peak. Returns a checksum and the lanes per vector.
+struct Fma {
+    iters: usize,
+    double: bool,
+}
+
+impl WithSimd for Fma {
+    type Output = (f64, usize);
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) -> (f64, usize) {
+        if self.double {
+            let (a, b) = (simd.splat_f64s(0.999_999), simd.splat_f64s(1e-9));
+            let mut acc = [simd.splat_f64s(1.0); 12];
+            for _ in 0..self.iters {
+                for x in acc.iter_mut() {
+                    *x = simd.mul_add_f64s(*x, a, b);
+                }
+            }
+            let s = acc.iter().fold(simd.splat_f64s(0.0), |s, &x| simd.add_f64s(s, x));
+            (simd.reduce_sum_f64s(s), size_of::<S::f64s>() / 8)
+        } else {
+            let (a, b) = (simd.splat_f32s(0.999_999), simd.splat_f32s(1e-9));
+            let mut acc = [simd.splat_f32s(1.0); 12];
+            for _ in 0..self.iters {
+                for x in acc.iter_mut() {
+                    *x = simd.mul_add_f32s(*x, a, b);
+                }
+            }
+            let s = acc.iter().fold(simd.splat_f32s(0.0), |s, &x| simd.add_f32s(s, x));
+            (f64::from(simd.reduce_sum_f32s(s)), size_of::<S::f32s>() / 4)
+        }
+    }
+}
+
+/// The multiply-add peak on `threads` cores at once, flop/s (best of three).
+fn fma_peak(double: bool, threads: usize) -> f64 {
+    let iters = 20_000_000;
+    let once = || pulp::Arch::new().dispatch(Fma { iters: black_box(iters), double });
+    let lanes = once().1;
+    (0..3)
+        .map(|_| {
+            let t = Instant::now();
+            std::thread::scope(|s| {
+                let hs: Vec<_> = (1..threads).map(|_| s.spawn(|| black_box(once()))).collect();
+                black_box(once());
+                for h in hs {
+                    let _ = h.join();
+                }
+            });
+            (threads * iters * 12 * lanes * 2) as f64 / t.elapsed().as_secs_f64()
+        })
+        .fold(0.0, f64::max)
+}
+
 fn fmt(d: Duration) -> String {
     let s = d.as_secs_f64();
     if s < 1e-3 {
@@ -61,14 +183,22 @@ fn fmt(d: Duration) -> String {
     }
 }
 
-struct Row {
-    what: String,
-    time: Duration,
-    floor: Option<Duration>,
-    /// Network steps (one state vector, one update) in the measured call.
-    steps: f64,
-    target: &'static str,
-    verdict: String,
+fn secs(s: f64) -> String {
+    fmt(Duration::from_secs_f64(s.max(0.0)))
+}
+
+fn rate(r: f64) -> String {
+    if r >= 1e6 {
+        format!("{:.2} M", r / 1e6)
+    } else if r >= 1e4 {
+        format!("{:.0} k", r / 1e3)
+    } else {
+        format!("{r:.0}")
+    }
+}
+
+fn verdict(ok: bool) -> &'static str {
+    if ok { "met" } else { "MISSED" }
 }
 
 fn config(n: usize, precision: Precision) -> anyhow::Result<cpg_reservoir::CheckedConfig> {
@@ -89,255 +219,362 @@ fn model(res: Reservoir, f: &Prepared, settings: &TrainSettings) -> anyhow::Resu
     )?)
 }
 
-pub fn run(vs_reservoirpy: bool) -> anyhow::Result<()> {
+/// Stream-steps per second of `k` free runs of `m` advancing together on `threads` cores.
+fn batched_rate(m: &TrainedCpg, k: usize, threads: usize) -> anyhow::Result<f64> {
+    let n = m.reservoir.n_neurons() as f64;
+    let steps = ((1.5e10 / (2.0 * n * n * k as f64)) as usize).clamp(50, 20_000);
+    let none: Vec<f64> = Vec::new();
+    let runs: Vec<Run<'_>> = (0..k).map(|_| Run::new(m, &none, steps)).collect();
+    let mut failed = None;
+    let t = median3(|| {
+        for r in free_runs(&runs, threads) {
+            if let Err(e) = r {
+                failed = Some(e);
+            }
+        }
+    });
+    if let Some(e) = failed {
+        anyhow::bail!("a benchmark run diverged: {e}");
+    }
+    Ok((k * steps) as f64 / t.as_secs_f64())
+}
+
+/// A child process's outcome.
+struct Ran {
+    stdout: Vec<u8>,
+    wall_s: f64,
+    peak_mib: Option<f64>,
+}
+
+/// Runs `cmd` to its end with the peak-memory report asked for; standard
+/// error is passed through (indented) when `echo`, and kept for errors.
+fn run_child(cmd: &mut Command, what: &str, echo: bool) -> anyhow::Result<Ran> {
+    cmd.env(cpg_lab::memory::REPORT_PEAK_RSS, "1").stdout(Stdio::piped()).stderr(Stdio::piped());
+    let t = Instant::now();
+    let mut child = cmd.spawn().with_context(|| format!("starting {what}"))?;
+    let mut out = child.stdout.take().context("no standard output")?;
+    let err = child.stderr.take().context("no standard error")?;
+    let reader = std::thread::spawn(move || {
+        let mut v = Vec::new();
+        let _ = out.read_to_end(&mut v);
+        v
+    });
+    let mut lines = Vec::new();
+    for line in BufReader::new(err).lines() {
+        let Ok(line) = line else { break };
+        if echo {
+            eprintln!("      | {line}");
+        }
+        lines.push(line);
+    }
+    let status = child.wait().with_context(|| format!("waiting for {what}"))?;
+    let wall_s = t.elapsed().as_secs_f64();
+    let stdout = reader.join().map_err(|_| anyhow::anyhow!("reading {what}'s output failed"))?;
+    let stderr = lines.join("\n");
+    ensure!(
+        status.success(),
+        "{what} failed ({status}):\n{}",
+        stderr.lines().rev().take(15).collect::<Vec<_>>().into_iter().rev().collect::<Vec<_>>().join("\n")
+    );
+    Ok(Ran { stdout, wall_s, peak_mib: cpg_lab::memory::parse_report(&stderr) })
+}
+
+fn mib(m: Option<f64>) -> String {
+    m.map_or("?".into(), |m| format!("{m:.1} MiB"))
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    if s.is_empty() { f64::NAN } else { s[s.len() / 2] }
+}
+
+fn range(v: &[f64]) -> (f64, f64) {
+    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)))
+}
+
+/// Peaks of the child processes, for the memory table.
+#[derive(Default)]
+struct Memory {
+    rows: Vec<(String, Option<f64>, String)>,
+}
+
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let e1 = cpg_lab::Config::load(&crate::root().join("experiments/e1-paper.toml"))?;
     let f = prepare(&e1)?;
-    let cycle =
-        f.teachers.first().map(|t| t.cycle.clone()).ok_or_else(|| anyhow::anyhow!("E1 has no teacher cycle"))?;
     let threads = rayon::current_num_threads();
-    println!("cargo xtask bench: {threads} threads, median of up to 15 samples each\n");
-    let mut rows = Vec::new();
+    println!("cargo xtask bench: {threads} threads\n");
+    let cpg = build_cli()?;
+    let dir = tempfile_dir()?;
+    let result = run_in(args, &e1, &f, &cpg, &dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn run_in(args: &Args, e1: &cpg_lab::Config, f: &Prepared, cpg: &Path, dir: &Path) -> anyhow::Result<()> {
+    let threads = rayon::current_num_threads();
+    let mut memory = Memory::default();
+    let models = many_streams(f, threads)?;
+    one_stream(&models)?;
+    phases(f)?;
+    precision_table(f)?;
+    let e1_peak = e1_pipeline(e1, f, cpg, dir, args.vs_reservoirpy.then_some(args.pairs))?;
+    memory.rows.push(("`cpg train` (E1, one noise draw)".into(), e1_peak.0, String::new()));
+    memory.rows.push(("`cpg generate` (E1, 100,000 steps to CSV)".into(), e1_peak.1, String::new()));
+    let e1_max = e1_peak.0.zip(e1_peak.1).map(|(a, b)| a.max(b));
+    tune_throughput(cpg, dir, &mut memory)?;
+    if !args.no_evaluate {
+        evaluation(dir, &mut memory)?;
+    }
+    println!("\n## 5. Peak resident memory (VmHWM of each process)\n");
+    println!("| process | peak | target | verdict |");
+    println!("|---|---:|---|---|");
+    for (what, peak, _) in &memory.rows {
+        println!("| {what} | {} | | |", mib(*peak));
+    }
+    let limit = 2.0 * BASELINE_E1_MIB;
+    println!(
+        "| the E1 pipeline (the larger of the two) | {} | ≤ {limit:.1} MiB (2× d59c6ec's {BASELINE_E1_MIB} MiB) | {} |",
+        mib(e1_max),
+        e1_max.map_or("?", |m| verdict(m <= limit))
+    );
+    Ok(())
+}
+
+/// Part 1: K streams through one W per pass, beside the floors.
+fn many_streams(f: &Prepared, threads: usize) -> anyhow::Result<Vec<(usize, Precision, TrainedCpg)>> {
+    println!("## 1. Many streams per pass\n");
+    let peaks: Vec<(f64, f64)> = [1, threads.max(2)]
+        .iter()
+        .map(|&t| (fma_peak(false, t.min(threads.max(1))), fma_peak(true, t.min(threads.max(1)))))
+        .collect();
+    let cores = [1usize, threads.clamp(1, 2)];
+    println!("Multiply-add floor (12 chains of fused multiply-adds on full vectors, best of 3):\n");
+    println!("| cores | f32 Gflop/s | f64 Gflop/s |");
+    println!("|---:|---:|---:|");
+    for (c, (a, b)) in cores.iter().zip(&peaks) {
+        println!("| {c} | {:.0} | {:.0} |", a / 1e9, b / 1e9);
+    }
     let quick = TrainSettings {
         penalties: PenaltyGrid::log10_range(1.0, 1.0, -1.0)?,
         n_noise_draws: 1,
         ..TrainSettings::wyffels_schrauwen_2009()
     };
-
+    let baseline = 1.0 / BASELINE_STEP_S;
+    println!(
+        "\nBatched free runs (`cpg_reservoir::batch::free_runs`, K runs of one model from E1's data, median of 3). The floor of a cell is the lower of two rates: streaming W once per pass (measured, split over the cores) and the multiply-add peak (2 N² flop per stream-step). Targets: at K ≥ 32, N = 300, f32, at least 2.5× d59c6ec's single stream ({:.0} k stream-steps/s, {:.2} µs a step) on one core and 5× on two.\n",
+        baseline / 1e3,
+        BASELINE_STEP_S * 1e6
+    );
+    println!(
+        "| N | precision | K | cores | stream-steps/s | Gflop/s | floor | % of floor | × this build's single stream, 1 core | × d59c6ec | target | verdict |"
+    );
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
+    let mut models = Vec::new();
     for (n, precision) in [(300, Precision::F32), (300, Precision::F64), (2000, Precision::F32), (2000, Precision::F64)]
     {
+        let res = Reservoir::new(&config(n, precision)?, 1)?;
+        let stream_s: Vec<f64> = cores
+            .iter()
+            .map(|&c| match precision {
+                Precision::F32 => {
+                    let w: Vec<f32> = res.w().iter().map(|&v| v as f32).collect();
+                    stream_time(&w, c).as_secs_f64()
+                }
+                Precision::F64 => stream_time(&res.w(), c).as_secs_f64(),
+            })
+            .collect();
+        let m = model(res, f, &quick)?;
+        let flop = 2.0 * (n * n) as f64;
+        let mut single = f64::NAN;
+        for k in [1usize, 8, 32, 128] {
+            for (ci, &c) in cores.iter().enumerate() {
+                if ci == 1 && cores[1] == cores[0] {
+                    continue;
+                }
+                let r = batched_rate(&m, k, c)?;
+                if k == 1 && c == 1 {
+                    single = r;
+                }
+                let peak = if precision == Precision::F32 { peaks[ci].0 } else { peaks[ci].1 };
+                let floor = (k as f64 / stream_s[ci]).min(peak / flop);
+                let (target, ok) = if n == 300 && precision == Precision::F32 && k >= 32 {
+                    let want = if c == 1 { 2.5 } else { 5.0 };
+                    (format!("≥ {want}× d59c6ec"), Some(r / baseline >= want))
+                } else {
+                    (String::new(), None)
+                };
+                println!(
+                    "| {n} | {} | {k} | {c} | {} | {:.0} | {} | {:.0} % | {:.2} | {} | {target} | {} |",
+                    format!("{precision:?}").to_lowercase(),
+                    rate(r),
+                    r * flop / 1e9,
+                    rate(floor),
+                    100.0 * r / floor,
+                    r / single,
+                    if n == 300 && precision == Precision::F32 {
+                        format!("{:.2}", r / baseline)
+                    } else {
+                        String::new()
+                    },
+                    ok.map_or("", verdict)
+                );
+            }
+        }
+        models.push((n, precision, m));
+    }
+    Ok(models)
+}
+
+/// Part 2: one stream, one core against both (the step split by rows).
+fn one_stream(models: &[(usize, Precision, TrainedCpg)]) -> anyhow::Result<()> {
+    println!("\n## 2. One stream, both cores\n");
+    println!(
+        "A step split by rows over two cores: each core holds half of W in its own cache and the halves of the state are exchanged after every step. Sync cost: the split step minus half the one-core step.\n"
+    );
+    println!(
+        "| N | precision | one core (`Generator::step`) | two cores (split) | speed-up | sync cost | outputs 1 vs 2 cores | target | verdict |"
+    );
+    println!("|---:|---|---:|---:|---:|---:|---|---|---|");
+    for (n, precision, m) in models {
+        let mut g = Generator::new(m);
+        let one = measure(|| {
+            black_box(g.step(&[]).map(|y| y[0]).unwrap_or(f64::NAN));
+        })
+        .as_secs_f64();
+        let steps = if *n <= 300 { 20_000 } else { 2_000 };
+        let none: Vec<f64> = Vec::new();
+        let runs = [Run::new(m, &none, steps)];
+        let mut outs = Vec::new();
+        let two = median3(|| outs = free_runs(&runs, 2)).as_secs_f64() / steps as f64;
+        let split: Vec<f64> = outs.into_iter().next().context("no run")??;
+        let alone: Vec<f64> = free_runs(&runs, 1).into_iter().next().context("no run")??;
+        let mut g = Generator::new(m);
+        let mut stepped = Vec::with_capacity(steps);
+        for _ in 0..steps {
+            g.step(&[])?;
+            stepped.push(g.normalised_output()[0]);
+        }
+        let same = split.iter().map(|v| v.to_bits()).eq(alone.iter().map(|v| v.to_bits()))
+            && stepped.iter().map(|v| v.to_bits()).eq(alone.iter().map(|v| v.to_bits()));
+        let (target, ok) = if *n == 300 && *precision == Precision::F32 {
+            ("≤ 3 µs, bit-identical", Some(two <= 3e-6 && same))
+        } else {
+            ("bit-identical", Some(same))
+        };
+        println!(
+            "| {n} | {} | {} | {} | {:.2}× | {} | {} | {target} | {} |",
+            format!("{precision:?}").to_lowercase(),
+            secs(one),
+            secs(two),
+            one / two,
+            secs(two - one / 2.0),
+            if same { format!("bit-identical over {steps} steps") } else { "DIFFER".into() },
+            ok.map_or("", verdict)
+        );
+    }
+    Ok(())
+}
+
+/// The training phases at N = 300, each beside the time to stream W once.
+fn phases(f: &Prepared) -> anyhow::Result<()> {
+    println!("\n## Training phases (N = 300, all cores)\n");
+    println!("| what | time | per network step, × stream-W floor | target | verdict |");
+    println!("|---|---:|---:|---|---|");
+    for precision in [Precision::F32, Precision::F64] {
+        let n = 300;
         let res = Reservoir::new(&config(n, precision)?, 1)?;
         let floor = match precision {
             Precision::F32 => {
                 let w: Vec<f32> = res.w().iter().map(|&v| v as f32).collect();
-                measure(|| {
-                    black_box(stream(black_box(&w)));
-                })
+                stream_time(&w, 1)
             }
-            Precision::F64 => {
-                let w = res.w().to_vec();
-                measure(|| {
-                    black_box(stream(black_box(&w)));
-                })
-            }
-        };
-        let tag = format!("N={n} {precision:?}").to_lowercase();
-        rows.push(Row {
-            what: format!("floor: stream W once ({tag})"),
-            time: floor,
-            floor: Some(floor),
-            steps: 1.0,
-            target: "",
-            verdict: String::new(),
-        });
-        let m = model(res.clone(), &f, &quick)?;
-        let mut g = Generator::new(&m);
-        let step = measure(|| {
-            black_box(g.step(&[]).map(|y| y[0]).unwrap_or(f64::NAN));
-        });
-        let (target, verdict) = if n == 300 && precision == Precision::F32 {
-            let ok = step <= Duration::from_micros(10) && step <= floor * 2;
-            ("<= 10 µs and <= 2× floor", if ok { "met".into() } else { "MISSED".into() })
-        } else {
-            ("", String::new())
-        };
-        rows.push(Row {
-            what: format!("free-run step ({tag})"),
-            time: step,
-            floor: Some(floor),
-            steps: 1.0,
-            target,
-            verdict,
-        });
-        if n == 300 {
-            let seq = cpg_reservoir::Sequence::outputs_only(f.data.train.outputs[..2000].to_vec());
-            let x0 = vec![0.0; n];
-            let h = measure(|| {
-                black_box(teacher_forced_states(&res, &x0, &seq).map(|s| s.len()).unwrap_or(0));
-            });
-            rows.push(Row {
-                what: format!("teacher-forced harvest, 2000 steps ({tag})"),
-                time: h,
-                floor: Some(floor),
-                steps: 2000.0,
-                target: "",
-                verdict: String::new(),
-            });
-
-            // The sweep: all 91 penalties from one factorisation, each validated by a
-            // 500-step noisy free run.
-            let data = &f.data;
-            let hv = harvest(&res, &data.train, 200)?;
-            for draws in [1, 5] {
-                let settings = TrainSettings { n_noise_draws: draws, ..TrainSettings::wyffels_schrauwen_2009() };
-                let t =
-                    measure(|| {
-                        let path = RidgePath::new(hv.states.as_ref(), hv.targets.as_ref()).ok();
-                        let candidates: Vec<Candidate> =
-                            path.iter()
-                                .flat_map(|p| {
-                                    settings.penalties.values().iter().filter_map(|&l| {
-                                        p.solve(l).ok().map(|readout| Candidate { penalty: l, readout })
-                                    })
-                                })
-                                .collect();
-                        black_box(validate(&res, &candidates, data, &settings).map(|c| c.0.len()).ok());
-                    });
-                let (target, verdict) = if draws == 1 && precision == Precision::F32 {
-                    ("< 0.5 s", if t < Duration::from_millis(500) { "met".into() } else { "MISSED".into() })
-                } else {
-                    ("", String::new())
-                };
-                rows.push(Row {
-                    what: format!("91-penalty sweep, 500-step noisy validation, {draws} draw(s) ({tag})"),
-                    time: t,
-                    floor: Some(floor),
-                    steps: (91 * 500 * draws) as f64,
-                    target,
-                    verdict,
-                });
-            }
-            let settings = TrainSettings::wyffels_schrauwen_2009();
-            let t = measure(|| {
-                black_box(train(&res, data, &settings).map(|t| t.penalty).ok());
-            });
-            rows.push(Row {
-                what: format!("training end to end, E1, 5 draws ({tag})"),
-                time: t,
-                floor: Some(floor),
-                steps: (2199 + 91 * 5 * 500 + 2200) as f64,
-                target: "",
-                verdict: String::new(),
-            });
+            Precision::F64 => stream_time(&res.w(), 1),
         }
+        .as_secs_f64();
+        let tag = format!("{precision:?}").to_lowercase();
+        let row = |what: String, t: f64, steps: f64, target: &str, v: &str| {
+            println!("| {what} | {} | {:.2} | {target} | {v} |", secs(t), t / steps / floor);
+        };
+        let seq = cpg_reservoir::Sequence::outputs_only(f.data.train.outputs[..2000].to_vec());
+        let x0 = vec![0.0; n];
+        let h = measure(|| {
+            black_box(teacher_forced_states(&res, &x0, &seq).map(|s| s.len()).unwrap_or(0));
+        });
+        row(format!("teacher-forced harvest, 2000 steps ({tag})"), h.as_secs_f64(), 2000.0, "", "");
+        let data = &f.data;
+        let hv = harvest(&res, &data.train, 200)?;
+        for draws in [1, 5] {
+            let settings = TrainSettings { n_noise_draws: draws, ..TrainSettings::wyffels_schrauwen_2009() };
+            let t = measure(|| {
+                let path = RidgePath::new(hv.states.as_ref(), hv.targets.as_ref()).ok();
+                let candidates: Vec<Candidate> = path
+                    .iter()
+                    .flat_map(|p| {
+                        settings
+                            .penalties
+                            .values()
+                            .iter()
+                            .filter_map(|&l| p.solve(l).ok().map(|readout| Candidate { penalty: l, readout }))
+                    })
+                    .collect();
+                black_box(validate(&res, &candidates, data, &settings).map(|c| c.0.len()).ok());
+            })
+            .as_secs_f64();
+            let (target, v) =
+                if draws == 1 && precision == Precision::F32 { ("< 0.5 s", verdict(t < 0.5)) } else { ("", "") };
+            row(
+                format!("91-penalty sweep, 500-step noisy validation, {draws} draw(s) ({tag})"),
+                t,
+                (91 * 500 * draws) as f64,
+                target,
+                v,
+            );
+        }
+        let settings = TrainSettings::wyffels_schrauwen_2009();
+        let t = measure(|| {
+            black_box(train(&res, data, &settings).map(|t| t.penalty).ok());
+        })
+        .as_secs_f64();
+        row(format!("training end to end, E1, 5 draws ({tag})"), t, (2199 + 91 * 5 * 500 + 2200) as f64, "", "");
     }
-    println!("| what | time | per network step, × floor | target | verdict |");
-    println!("|---|---:|---:|---|---|");
-    for r in &rows {
-        let ratio =
-            r.floor.map(|fl| format!("{:.2}", r.time.as_secs_f64() / r.steps / fl.as_secs_f64())).unwrap_or_default();
-        println!("| {} | {} | {} | {} | {} |", r.what, fmt(r.time), ratio, r.target, r.verdict);
-    }
+    Ok(())
+}
 
-    // Accuracy of the two precisions on E1 (seed 1): same reservoir, same data.
-    println!("\nPrecision on E1 (35_01 lfemur.rx, seed 1, paper settings):");
+/// Accuracy of the two precisions on E1 (seed 1): same reservoir, same data.
+fn precision_table(f: &Prepared) -> anyhow::Result<()> {
+    println!("\nPrecision on E1 (35_01 lfemur.rx, seed 1, paper settings):\n");
     println!(
         "| precision | chosen penalty | first-500 NMSE | max |f32 − f64| over 500 steps (deg) | period at 100k (frames) | half range at 100k (z) |"
     );
     println!("|---|---:|---:|---:|---:|---:|");
-    let teacher = f.data.validation.outputs.clone();
-    let var = {
-        let m = teacher.iter().sum::<f64>() / 500.0;
-        teacher.iter().map(|t| (t - m).powi(2)).sum::<f64>() / 500.0
-    };
+    let teacher = &f.data.validation.outputs;
     let mut runs = Vec::new();
     for precision in [Precision::F32, Precision::F64] {
-        let m = model(Reservoir::new(&config(300, precision)?, 1)?, &f, &TrainSettings::wyffels_schrauwen_2009())?;
+        let m = model(Reservoir::new(&config(300, precision)?, 1)?, f, &TrainSettings::wyffels_schrauwen_2009())?;
         let mut g = Generator::new(&m);
-        let mut out = Vec::with_capacity(100_000);
-        let mut norm = Vec::with_capacity(100_000);
-        for _ in 0..100_000 {
+        let mut out = Vec::with_capacity(FREE_RUN_STEPS);
+        let mut norm = Vec::with_capacity(FREE_RUN_STEPS);
+        for _ in 0..FREE_RUN_STEPS {
             out.push(g.step(&[])?[0]);
             norm.push(g.normalised_output()[0]);
         }
-        let nmse = norm[..500].iter().zip(&teacher).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / 500.0 / var;
-        let end = &norm[100_000 - 1200..];
+        let end = &norm[FREE_RUN_STEPS - 1200..];
         let period = estimate_period(end, 60, 250).unwrap_or(f64::NAN);
-        runs.push((precision, m.provenance.chosen_penalty, nmse, out, period, cpg_mocap::cycle::half_range(end)));
+        runs.push((
+            precision,
+            m.provenance.chosen_penalty,
+            nmse(&norm[..teacher.len()], teacher),
+            out,
+            period,
+            cpg_mocap::cycle::half_range(end),
+        ));
     }
     let diff = runs[0].3[..500].iter().zip(&runs[1].3[..500]).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     for (p, pen, nmse, _, period, hr) in &runs {
         println!("| {p:?} | {pen:e} | {nmse:.4} | {diff:.2e} | {period:.2} | {hr:.3} |");
     }
-    println!("\nteacher cycle: {} frames, half range {:.3} (z)", cycle.len(), cpg_mocap::cycle::half_range(&cycle));
-    tune_throughput()?;
-    if vs_reservoirpy {
-        side_by_side(&e1, &f)?;
-    }
     Ok(())
-}
-
-/// `cpg tune`'s throughput: configurations (each trained and judged on one
-/// seed) per minute, on every core, from `examples/poor-femur.toml`.
-fn tune_throughput() -> anyhow::Result<()> {
-    let base = cpg_lab::Config::load(&crate::root().join("examples/poor-femur.toml"))?;
-    let s = cpg_lab::tune::TuneSettings { budget: 7, seeds: 1, long_run_s: 60.0, ..Default::default() };
-    let t = Instant::now();
-    let r = cpg_lab::tune::tune(&base, &s, &cpg_lab::experiment::Quiet)?;
-    let minutes = t.elapsed().as_secs_f64() / 60.0;
-    println!(
-        "\ncpg tune (examples/poor-femur.toml, {} configurations × {} seed, {} s judged runs + a push, {} threads): {:.1} s, {:.1} configurations per minute; best passed on {} of {} seeds",
-        r.candidates.len(),
-        s.seeds,
-        s.long_run_s,
-        rayon::current_num_threads(),
-        minutes * 60.0,
-        r.candidates.len() as f64 / minutes,
-        r.best().map_or(0, |b| b.passed),
-        s.seeds
-    );
-    Ok(())
-}
-
-/// One E1 pipeline of ours, phase by phase, on the same data as ReservoirPy's.
-struct Pipeline {
-    init_s: f64,
-    harvest_s: f64,
-    sweep_s: f64,
-    free_run_s: f64,
-    total_s: f64,
-    penalty: f64,
-    first500_nmse: f64,
-    tail: Vec<f64>,
-}
-
-const FREE_RUN_STEPS: usize = 100_000;
-
-fn ours(e1: &cpg_lab::Config, f: &Prepared, precision: Precision) -> anyhow::Result<Pipeline> {
-    let mut rc = cpg_lab::train::reservoir_config(e1, 1)?;
-    rc.precision = precision;
-    let settings = cpg_lab::train::train_settings(e1)?;
-    let all = Instant::now();
-    let t = Instant::now();
-    let res = Reservoir::new(&rc.check()?, e1.reservoir.seed)?;
-    let init_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    black_box(harvest(&res, &f.data.train, settings.washout)?);
-    let harvest_s = t.elapsed().as_secs_f64();
-    // `train` harvests again, then solves and validates every penalty.
-    let t = Instant::now();
-    let tr = train(&res, &f.data, &settings)?;
-    let sweep_s = (t.elapsed().as_secs_f64() - harvest_s).max(0.0);
-    let penalty = tr.penalty;
-    let m = TrainedCpg::new(
-        res,
-        tr,
-        settings,
-        f.data.scoring.clone(),
-        f.outputs.clone(),
-        vec![],
-        f.description.clone(),
-        e1.data.rate_hz,
-    )?;
-    let mut g = Generator::new(&m);
-    let mut norm = vec![0.0; FREE_RUN_STEPS];
-    let t = Instant::now();
-    for v in norm.iter_mut() {
-        g.step(&[])?;
-        *v = g.normalised_output()[0];
-    }
-    let free_run_s = t.elapsed().as_secs_f64();
-    let total_s = all.elapsed().as_secs_f64();
-    let target = &f.data.validation.outputs;
-    Ok(Pipeline {
-        init_s,
-        harvest_s,
-        sweep_s,
-        free_run_s,
-        total_s,
-        penalty,
-        first500_nmse: nmse(&norm[..target.len()], target),
-        tail: norm[FREE_RUN_STEPS - 1200..].to_vec(),
-    })
 }
 
 fn nmse(y: &[f64], t: &[f64]) -> f64 {
@@ -346,114 +583,321 @@ fn nmse(y: &[f64], t: &[f64]) -> f64 {
     y.iter().zip(t).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / t.len() as f64 / var
 }
 
-/// E1 with ReservoirPy 0.4.2 and with cpg, in one run, on the same data:
-/// `scripts/reservoirpy_e1.sh` gets the prepared sequences as JSON. The two
-/// OpenBLAS variables this machine sets (which select an older, slower
-/// kernel) are removed for that one command, so the rival runs at its best.
-fn side_by_side(e1: &cpg_lab::Config, f: &Prepared) -> anyhow::Result<()> {
-    use anyhow::Context;
-    let settings = cpg_lab::train::train_settings(e1)?;
-    let rc = cpg_lab::train::reservoir_config(e1, 1)?;
-    let input = serde_json::json!({
-        "n_neurons": rc.n_neurons,
-        "leak_rate": rc.leak_rate,
-        "spectral_radius": rc.spectral_radius,
-        "connectivity": rc.connectivity,
-        "feedback_scale": rc.feedback.scale,
-        "seed": e1.reservoir.seed,
-        "train": f.data.train.outputs,
-        "warmup": f.data.warmup.outputs,
-        "validation": f.data.validation.outputs,
-        "washout": settings.washout,
-        "penalties": settings.penalties.values(),
-        "noise_variance": settings.noise_variance,
-        "noise_draws": settings.n_noise_draws,
-        "free_run_steps": FREE_RUN_STEPS,
-    });
-    let dir = tempfile_dir()?;
-    let path = dir.join("e1.json");
-    std::fs::write(&path, serde_json::to_vec(&input)?)?;
-    println!(
-        "\nE1 side by side with ReservoirPy 0.4.2 (same data and settings, one run; OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset for ReservoirPy, BLAS 1 thread) …"
+/// Builds `cpg` (release) and returns its path.
+fn build_cli() -> anyhow::Result<PathBuf> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let st = Command::new(cargo)
+        .args(["build", "--release", "--quiet", "-p", "cpg-cli"])
+        .current_dir(crate::root())
+        .status()
+        .context("building cpg")?;
+    ensure!(st.success(), "building cpg failed ({st})");
+    let exe = crate::root().join("target/release").join(format!("cpg{}", std::env::consts::EXE_SUFFIX));
+    ensure!(exe.is_file(), "{} is missing after the build", exe.display());
+    Ok(exe)
+}
+
+/// E1's configuration for one seed of the side-by-side run: the paper's
+/// protocol with one noise draw, every path absolute, the model into `dir`.
+fn e1_config(dir: &Path, seed: u64) -> anyhow::Result<(PathBuf, PathBuf)> {
+    let src = crate::root().join("experiments/e1-paper.toml");
+    let text = std::fs::read_to_string(&src).with_context(|| format!("reading {}", src.display()))?;
+    let mut v: toml::Table = toml::from_str(&text).with_context(|| format!("parsing {}", src.display()))?;
+    let base = src.parent().context("no parent")?.to_path_buf();
+    let abs = |p: &toml::Value| -> anyhow::Result<toml::Value> {
+        let s = p.as_str().context("a path is not a string")?;
+        Ok(toml::Value::String(base.join(s).display().to_string()))
+    };
+    let data = v.get_mut("data").and_then(|d| d.as_table_mut()).context("no [data]")?;
+    let sk = abs(data.get("skeleton").context("no data.skeleton")?)?;
+    data.insert("skeleton".into(), sk);
+    for seg in data.get_mut("segments").and_then(|s| s.as_array_mut()).context("no [[data.segments]]")? {
+        let t = seg.as_table_mut().context("a segment is not a table")?;
+        let m = abs(t.get("motion").context("no motion")?)?;
+        t.insert("motion".into(), m);
+    }
+    v.get_mut("reservoir")
+        .and_then(|r| r.as_table_mut())
+        .context("no [reservoir]")?
+        .insert("seed".into(), toml::Value::Integer(i64::try_from(seed)?));
+    v.get_mut("training")
+        .and_then(|r| r.as_table_mut())
+        .context("no [training]")?
+        .insert("noise_draws".into(), toml::Value::Integer(1));
+    let model = dir.join(format!("e1-seed{seed}.cpg"));
+    v.get_mut("output")
+        .and_then(|r| r.as_table_mut())
+        .context("no [output]")?
+        .insert("model".into(), toml::Value::String(model.display().to_string()));
+    v.remove("experiment");
+    let path = dir.join(format!("e1-seed{seed}.toml"));
+    std::fs::write(&path, toml::to_string(&v)?)?;
+    Ok((path, model))
+}
+
+/// One E1 pipeline of cpg as a user runs it: `cpg train`, then `cpg generate`
+/// of 100,000 steps to CSV.
+struct CpgE1 {
+    train: Ran,
+    generate: Ran,
+    penalty: f64,
+    first500_nmse: f64,
+}
+
+fn cpg_e1(cpg: &Path, dir: &Path, seed: u64, teacher: &[f64]) -> anyhow::Result<CpgE1> {
+    let (cfg, model) = e1_config(dir, seed)?;
+    let train = run_child(Command::new(cpg).arg("train").arg("--config").arg(&cfg), "cpg train", false)?;
+    let csv = dir.join(format!("e1-seed{seed}.csv"));
+    let seconds = (FREE_RUN_STEPS as f64 / 120.0).to_string();
+    let generate = run_child(
+        Command::new(cpg).arg("generate").arg("--model").arg(&model).args(["--seconds", &seconds]).arg("-o").arg(&csv),
+        "cpg generate",
+        false,
+    )?;
+    let m = TrainedCpg::load(&model)?;
+    let text = std::fs::read_to_string(&csv)?;
+    let values: Vec<f64> =
+        text.lines().filter_map(|l| l.split(',').next_back().and_then(|v| v.trim().parse::<f64>().ok())).collect();
+    ensure!(
+        values.len() == FREE_RUN_STEPS,
+        "{} holds {} values, expected {FREE_RUN_STEPS}",
+        csv.display(),
+        values.len()
     );
-    let out = std::process::Command::new("bash")
-        .arg(crate::root().join("scripts/reservoirpy_e1.sh"))
-        .arg(&path)
+    let o = m.outputs.first().context("the model has no output")?;
+    let norm: Vec<f64> = values[..teacher.len()].iter().map(|v| (v - o.mean) / o.std).collect();
+    Ok(CpgE1 { train, generate, penalty: m.provenance.chosen_penalty, first500_nmse: nmse(&norm, teacher) })
+}
+
+/// Part 3 (and the E1 rows of part 5): the E1 pipeline, alone or side by
+/// side with ReservoirPy. Returns the peaks of `cpg train` and `cpg generate`
+/// (seed 1).
+fn e1_pipeline(
+    e1: &cpg_lab::Config,
+    f: &Prepared,
+    cpg: &Path,
+    dir: &Path,
+    pairs: Option<u64>,
+) -> anyhow::Result<(Option<f64>, Option<f64>)> {
+    let teacher = &f.data.validation.outputs;
+    let Some(pairs) = pairs else {
+        println!(
+            "\n## 3. E1 pipeline (cpg train + cpg generate, seed 1; `--vs-reservoirpy` runs it beside ReservoirPy)\n"
+        );
+        let r = cpg_e1(cpg, dir, 1, teacher)?;
+        println!(
+            "`cpg train` {} + `cpg generate` {} = {}; chosen penalty {:e}, first-500 NMSE {:.4}",
+            secs(r.train.wall_s),
+            secs(r.generate.wall_s),
+            secs(r.train.wall_s + r.generate.wall_s),
+            r.penalty,
+            r.first500_nmse
+        );
+        return Ok((r.train.peak_mib, r.generate.peak_mib));
+    };
+    println!(
+        "\n## 3. E1 side by side with ReservoirPy 0.4.2 ({pairs} alternating pairs, seeds 1–{pairs})\n\nThe whole pipeline (harvest, 91-penalty sweep with one noise draw of variance {}, retrain, 100,000-step free run written to CSV). cpg: `cpg train` + `cpg generate`, processes on every core. ReservoirPy: `scripts/reservoirpy_e1.py` in one process, BLAS on one thread (two BLAS threads beside the Python loop are slower), OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE unset. Wall times of whole processes (start-up and imports included); ReservoirPy's own timer of the pipeline beside it.\n",
+        e1.training.noise_variance
+    );
+    let script = crate::root().join("scripts/reservoirpy_e1.sh");
+    let st = Command::new("bash")
+        .arg(&script)
+        .arg("--setup")
         .env_remove("OPENBLAS_CORETYPE")
         .env_remove("OPENBLAS_L2_SIZE")
-        .stderr(std::process::Stdio::inherit())
-        .output()
-        .context("running scripts/reservoirpy_e1.sh")?;
-    let _ = std::fs::remove_dir_all(&dir);
-    anyhow::ensure!(out.status.success(), "scripts/reservoirpy_e1.sh failed ({})", out.status);
-    let rp: serde_json::Value =
-        serde_json::from_slice(&out.stdout).context("reading the JSON scripts/reservoirpy_e1.sh printed")?;
-    let num = |k: &str| rp[k].as_f64().ok_or_else(|| anyhow::anyhow!("ReservoirPy's result has no number `{k}`"));
-    let (f32p, f64p) = (ours(e1, f, Precision::F32)?, ours(e1, f, Precision::F64)?);
-    println!(
-        "| phase | ReservoirPy {} (numpy {}) | cpg f64 | cpg f32 | ReservoirPy ÷ cpg f32 |",
-        rp["versions"]["reservoirpy"].as_str().unwrap_or("?"),
-        rp["versions"]["numpy"].as_str().unwrap_or("?")
-    );
-    println!("|---|---:|---:|---:|---:|");
-    let rows: [(&str, f64, f64, f64); 5] = [
-        ("build the reservoir", num("init_s")?, f64p.init_s, f32p.init_s),
-        ("harvest (teacher forcing)", num("harvest_s")?, f64p.harvest_s, f32p.harvest_s),
-        (
-            "91 penalties: ridge solves + noisy 500-step validations",
-            num("sweep_s")? + num("retrain_s")?,
-            f64p.sweep_s,
-            f32p.sweep_s,
-        ),
-        ("free run, 100,000 steps", num("free_run_s")?, f64p.free_run_s, f32p.free_run_s),
-        ("the whole pipeline", num("total_s")?, f64p.total_s, f32p.total_s),
-    ];
-    for (what, r, a, b) in rows {
-        println!("| {what} | {} | {} | {} | {:.0}× |", secs(r), secs(a), secs(b), r / b.max(1e-12));
+        .status()
+        .context("running scripts/reservoirpy_e1.sh --setup")?;
+    ensure!(st.success(), "scripts/reservoirpy_e1.sh --setup failed ({st})");
+    let settings = cpg_lab::train::train_settings(e1)?;
+    let rc = cpg_lab::train::reservoir_config(e1, 1)?;
+    struct Pair {
+        seed: u64,
+        cpg: CpgE1,
+        rp_wall_s: f64,
+        rp_total_s: f64,
+        rp_penalty: f64,
+        rp_nmse: f64,
+        rp_peak_mib: Option<f64>,
+        rp_rows: usize,
     }
-    let step = |s: f64| format!("{:.2} µs", s / FREE_RUN_STEPS as f64 * 1e6);
+    let mut all = Vec::new();
+    for seed in 1..=pairs {
+        let csv = dir.join(format!("rp-seed{seed}.csv"));
+        let input = serde_json::json!({
+            "n_neurons": rc.n_neurons,
+            "leak_rate": rc.leak_rate,
+            "spectral_radius": rc.spectral_radius,
+            "connectivity": rc.connectivity,
+            "feedback_scale": rc.feedback.scale,
+            "seed": seed,
+            "train": f.data.train.outputs,
+            "warmup": f.data.warmup.outputs,
+            "validation": f.data.validation.outputs,
+            "washout": settings.washout,
+            "penalties": settings.penalties.values(),
+            "noise_variance": settings.noise_variance,
+            "noise_draws": 1,
+            "free_run_steps": FREE_RUN_STEPS,
+            "csv": csv.display().to_string(),
+            "numpy_floor": false,
+        });
+        let json = dir.join(format!("rp-seed{seed}.json"));
+        std::fs::write(&json, serde_json::to_vec(&input)?)?;
+        let rp = || -> anyhow::Result<(Ran, serde_json::Value)> {
+            let ran = run_child(
+                Command::new("bash")
+                    .arg(&script)
+                    .arg(&json)
+                    .env_remove("OPENBLAS_CORETYPE")
+                    .env_remove("OPENBLAS_L2_SIZE"),
+                "scripts/reservoirpy_e1.sh",
+                false,
+            )?;
+            let v: serde_json::Value =
+                serde_json::from_slice(&ran.stdout).context("reading the JSON scripts/reservoirpy_e1.py printed")?;
+            Ok((ran, v))
+        };
+        let ((rp_ran, rp), ours) = if seed % 2 == 1 {
+            let ours = cpg_e1(cpg, dir, seed, teacher)?;
+            (rp()?, ours)
+        } else {
+            let r = rp()?;
+            (r, cpg_e1(cpg, dir, seed, teacher)?)
+        };
+        let num = |k: &str| rp[k].as_f64().ok_or_else(|| anyhow::anyhow!("ReservoirPy's result has no number `{k}`"));
+        let rows = std::fs::read_to_string(&csv).map(|t| t.lines().count()).unwrap_or(0);
+        let p = Pair {
+            seed,
+            rp_wall_s: rp_ran.wall_s,
+            rp_total_s: num("total_s")?,
+            rp_penalty: num("chosen_penalty")?,
+            rp_nmse: num("first500_nmse")?,
+            rp_peak_mib: rp["peak_rss_kib"].as_f64().map(|k| k / 1024.0),
+            rp_rows: rows,
+            cpg: ours,
+        };
+        eprintln!(
+            "  pair {seed}: cpg {:.2} s, ReservoirPy {:.2} s",
+            p.cpg.train.wall_s + p.cpg.generate.wall_s,
+            p.rp_wall_s
+        );
+        all.push(p);
+    }
     println!(
-        "| per free-run step | {} (numpy by hand: {:.2} µs) | {} | {} | {:.0}× |",
-        step(num("free_run_s")?),
-        num("numpy_step_s")? * 1e6,
-        step(f64p.free_run_s),
-        step(f32p.free_run_s),
-        num("free_run_s")? / f32p.free_run_s.max(1e-12)
+        "| seed | first | cpg train | cpg generate | cpg total | ReservoirPy process | ReservoirPy pipeline (own timer) | ratio (processes) | penalty cpg | penalty ReservoirPy | first-500 NMSE cpg | ReservoirPy | peak cpg train / generate | peak ReservoirPy |"
     );
-    let tail: Vec<f64> =
-        rp["free_run"].as_array().map(|a| a.iter().filter_map(|v| v.as_f64()).collect()).unwrap_or_default();
-    println!("\n| result | ReservoirPy | cpg f64 | cpg f32 |");
-    println!("|---|---:|---:|---:|");
-    println!("| chosen penalty | {:e} | {:e} | {:e} |", num("chosen_penalty")?, f64p.penalty, f32p.penalty);
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for p in &all {
+        let ours = p.cpg.train.wall_s + p.cpg.generate.wall_s;
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {:.1}× | {:e} | {:e} | {:.4} | {:.4} | {} / {} | {} |",
+            p.seed,
+            if p.seed % 2 == 1 { "cpg" } else { "ReservoirPy" },
+            secs(p.cpg.train.wall_s),
+            secs(p.cpg.generate.wall_s),
+            secs(ours),
+            secs(p.rp_wall_s),
+            secs(p.rp_total_s),
+            p.rp_wall_s / ours,
+            p.cpg.penalty,
+            p.rp_penalty,
+            p.cpg.first500_nmse,
+            p.rp_nmse,
+            mib(p.cpg.train.peak_mib),
+            mib(p.cpg.generate.peak_mib),
+            mib(p.rp_peak_mib),
+        );
+        ensure!(p.rp_rows >= FREE_RUN_STEPS, "ReservoirPy wrote {} rows, expected {FREE_RUN_STEPS}", p.rp_rows);
+    }
+    let ratios: Vec<f64> = all.iter().map(|p| p.rp_wall_s / (p.cpg.train.wall_s + p.cpg.generate.wall_s)).collect();
+    let own: Vec<f64> = all.iter().map(|p| p.rp_total_s / (p.cpg.train.wall_s + p.cpg.generate.wall_s)).collect();
+    let (lo, hi) = range(&ratios);
+    let (olo, ohi) = range(&own);
+    let r = median(&ratios);
     println!(
-        "| NMSE of the first 500 free-run steps | {:.4} | {:.4} | {:.4} |",
-        num("first500_nmse")?,
-        f64p.first500_nmse,
-        f32p.first500_nmse
+        "\ncpg is {r:.1}× faster than ReservoirPy (median of {pairs} pairs, range {lo:.1}–{hi:.1}×; against ReservoirPy's own timer of its pipeline, without Python's start-up: {:.1}×, range {olo:.1}–{ohi:.1}×). Target ≥ 15×: {}.",
+        median(&own),
+        verdict(r >= 15.0)
     );
-    let period = |y: &[f64]| estimate_period(y, 60, 250).map_or("none".to_owned(), |p| format!("{p:.2}"));
-    let hr = |y: &[f64]| if y.is_empty() { f64::NAN } else { cpg_mocap::cycle::half_range(y) };
+    let lp = |v: Vec<f64>| range(&v.iter().map(|x| x.log10()).collect::<Vec<_>>());
+    let (ca, cb) = lp(all.iter().map(|p| p.cpg.penalty).collect());
+    let (ra, rb) = lp(all.iter().map(|p| p.rp_penalty).collect());
+    let overlap = ca <= rb && ra <= cb;
+    let cn: Vec<f64> = all.iter().map(|p| p.cpg.first500_nmse).collect();
+    let rn: Vec<f64> = all.iter().map(|p| p.rp_nmse).collect();
+    let (cna, cnb) = range(&cn);
+    let (rna, rnb) = range(&rn);
+    let spread = (cnb - cna).max(rnb - rna);
+    let gap = (median(&cn) - median(&rn)).abs();
     println!(
-        "| period over the last 1200 steps (frames) | {} | {} | {} |",
-        period(&tail),
-        period(&f64p.tail),
-        period(&f32p.tail)
+        "Chosen penalties: cpg 10^{ca:.1}…10^{cb:.1}, ReservoirPy 10^{ra:.1}…10^{rb:.1} ({}). First-500 NMSE: cpg median {:.4} (range {cna:.4}–{cnb:.4}), ReservoirPy median {:.4} (range {rna:.4}–{rnb:.4}); the medians differ by {gap:.4}, {} the larger spread across seeds ({spread:.4}).",
+        if overlap { "the regions overlap" } else { "the regions do NOT overlap" },
+        median(&cn),
+        median(&rn),
+        if gap <= spread { "within" } else { "OUTSIDE" }
     );
+    println!("(the reservoirs differ: each tool draws its own weights from the same recipe and seed)");
+    let first = all.first().context("no pair ran")?;
+    Ok((first.cpg.train.peak_mib, first.cpg.generate.peak_mib))
+}
+
+/// Part 4a: `cpg tune` at the E1 size with the long-run objective.
+fn tune_throughput(cpg: &Path, dir: &Path, memory: &mut Memory) -> anyhow::Result<()> {
+    let (budget, seeds, seconds) = (8, 10, 900);
     println!(
-        "| half range over the last 1200 steps (z) | {:.3} | {:.3} | {:.3} |",
-        hr(&tail),
-        hr(&f64p.tail),
-        hr(&f32p.tail)
+        "\n## 4. Throughput\n\n`cpg tune --config experiments/e1.toml --budget {budget} --seeds {seeds} --seconds {seconds}` (each configuration trained on {seeds} seeds and judged by {seeds} × {} steps plus the push):\n",
+        seconds * 120
     );
-    println!("(the reservoirs differ: each tool draws its own weights from the same recipe)");
+    let out = dir.join("tuned.toml");
+    let ran = run_child(
+        Command::new(cpg)
+            .arg("tune")
+            .arg("--config")
+            .arg(crate::root().join("experiments/e1.toml"))
+            .args(["--budget", &budget.to_string(), "--seeds", &seeds.to_string(), "--seconds", &seconds.to_string()])
+            .arg("--json")
+            .arg("-o")
+            .arg(&out),
+        "cpg tune",
+        false,
+    )?;
+    let v: serde_json::Value = serde_json::from_slice(&ran.stdout).context("reading cpg tune's JSON")?;
+    let n = v["candidates"].as_array().map_or(0, Vec::len);
+    let best = v["candidates"][0]["passed"].as_u64().unwrap_or(0);
+    println!(
+        "{n} configurations in {} on {} cores: **{:.1} configurations per minute** (best passed on {best} of {seeds} seeds)",
+        secs(ran.wall_s),
+        rayon::current_num_threads(),
+        n as f64 / (ran.wall_s / 60.0)
+    );
+    memory.rows.push((format!("`cpg tune` ({n} configurations × {seeds} seeds)"), ran.peak_mib, String::new()));
     Ok(())
 }
 
-fn secs(s: f64) -> String {
-    fmt(Duration::from_secs_f64(s.max(0.0)))
+/// Part 4b: the full evaluation, timed section by section.
+fn evaluation(dir: &Path, memory: &mut Memory) -> anyhow::Result<()> {
+    let out = dir.join("report");
+    println!("\n`cargo xtask evaluate` (10 seeds in every experiment), its own progress below:\n");
+    let exe = std::env::current_exe().context("finding the xtask binary")?;
+    let ran = run_child(Command::new(exe).arg("evaluate").arg("--out").arg(&out), "cargo xtask evaluate", true)?;
+    let metrics: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json"))?)?;
+    println!("\n| section | time |");
+    println!("|---|---:|");
+    if let Some(t) = metrics["seconds"].as_object() {
+        for (k, v) in t {
+            println!("| `{k}` | {} |", secs(v.as_f64().unwrap_or(f64::NAN)));
+        }
+    }
+    println!(
+        "| **the whole evaluation** | **{}** (target ≤ 10 min: {}) |",
+        secs(ran.wall_s),
+        verdict(ran.wall_s <= 600.0)
+    );
+    memory.rows.push(("`cargo xtask evaluate`".into(), ran.peak_mib, String::new()));
+    Ok(())
 }
 
-fn tempfile_dir() -> anyhow::Result<std::path::PathBuf> {
+fn tempfile_dir() -> anyhow::Result<PathBuf> {
     let d = std::env::temp_dir().join(format!("cpg-bench-{}", std::process::id()));
     std::fs::create_dir_all(&d)?;
     Ok(d)

@@ -56,16 +56,15 @@ enum Command {
     /// paper's, with its rule), metrics.json, the figures (PNG and SVG) and
     /// HOAP-2 joint trajectories.
     Evaluate(report::Args),
-    /// Benchmarks: one free-run step, harvesting, the 91-penalty sweep and
-    /// training, each beside a measured floor, f32 against f64 accuracy, and
-    /// `cpg tune`'s throughput (configurations per minute).
-    Bench {
-        /// Also run E1 with ReservoirPy 0.4.2 (scripts/reservoirpy_e1.sh, its
-        /// own venv, PyPI on first use) and with cpg on the same data, side by
-        /// side in this run.
-        #[arg(long)]
-        vs_reservoirpy: bool,
-    },
+    /// Benchmarks, each figure beside a floor measured in the same run: K
+    /// free runs per pass over the weights (K = 1, 8, 32, 128; N = 300 and
+    /// 2000; f32 and f64; one and two cores) against the multiply-add peak and
+    /// the weight-streaming floor; one stream split over both cores with its
+    /// synchronisation cost; the training phases; f32 against f64 accuracy;
+    /// E1's pipeline (with --vs-reservoirpy, beside ReservoirPy); `cpg tune`'s
+    /// configurations per minute; the full evaluation's time by section; and
+    /// the peak memory of each process.
+    Bench(bench::Args),
     /// Build the fuzz targets (ASF, AMC, TOML config, model file, control
     /// CSV) with the stable toolchain and run each under libFuzzer for a
     /// bounded time.
@@ -94,11 +93,14 @@ fn main() -> std::process::ExitCode {
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
         Command::Fuzz { seconds, seed, targets } => fuzz::run(seconds, &targets, seed),
-        Command::Bench { vs_reservoirpy } => bench::run(vs_reservoirpy),
+        Command::Bench(args) => bench::run(&args),
         Command::Train(args) => train::run(&args),
         Command::Python => python::run(),
         Command::Evaluate(args) => report::run(&args),
     };
+    if let Some(line) = cpg_lab::memory::report_line() {
+        eprintln!("{line}");
+    }
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {

@@ -138,3 +138,14 @@ fn hopf_centers_follow_the_phase_form_and_return_to_their_cycle() {
     assert!(hopf.off_cycle() < 0.01, "still {:.4} off the cycle after 3 s", hopf.off_cycle());
     assert!(jump > 0.0 && jump < 2.0 * PI);
 }
+
+#[test]
+fn the_residual_of_a_fit_is_the_residual_of_its_output() {
+    let x = signal(900, 0.7, 1.13);
+    for (w, n, b) in [(vec![2.0 * PI * 0.7], 25, 2.0), (vec![2.0 * PI * 0.7, 2.0 * PI * 1.13], 49, 1.0)] {
+        let (net, rss) = CentralizedNet::fit_rss(w.clone(), n, Basis::Rbf { b }, &x, 2, RATE).unwrap();
+        let again = net.rss(&x, RATE);
+        assert!((rss - again).abs() <= 1e-9 * again.max(1e-12), "{rss} vs {again}");
+        assert_eq!(net, CentralizedNet::fit(w, n, Basis::Rbf { b }, &x, 2, RATE).unwrap());
+    }
+}

@@ -435,6 +435,9 @@ fn main() -> ExitCode {
             commands::evaluate(&run.model, seconds, run.control.as_deref(), run.control_file.as_deref(), json)
         }
     };
+    if let Some(line) = cpg_lab::memory::report_line() {
+        eprintln!("{line}");
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -41,6 +41,7 @@ pub mod config;
 mod error;
 pub mod experiment;
 pub mod measure;
+pub mod memory;
 pub mod prepare;
 pub mod scene;
 pub mod schedule;

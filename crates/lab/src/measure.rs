@@ -21,7 +21,8 @@
 //!   ([`RECOVERY_THRESHOLD_SD`]); 0 s means at once.
 
 use cpg_mocap::cycle::{estimate_period, half_range, lag, orbit_distance};
-use cpg_reservoir::{Generator, OrbitStay, Teacher, TrainedCpg, orbit_nmse};
+use cpg_reservoir::batch::{Controls, Run};
+use cpg_reservoir::{Hold, OrbitStay, Teacher, TrainedCpg, orbit_nmse};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -280,25 +281,65 @@ pub fn free_run_with(
     push: Option<&Push>,
     noise: Option<(f64, u64)>,
 ) -> Result<Vec<f64>> {
-    let d = model.outputs.len();
-    let u = model.controls.len();
-    controls.check(u)?;
-    let rate = model.provenance.sample_rate_hz;
-    let mut g = Generator::new(model);
-    if let Some((variance, seed)) = noise {
-        g.set_state_noise(variance, seed);
+    let mut y = free_runs(&[RunSpec { model, controls, steps, push, noise }])?;
+    Ok(y.pop().unwrap_or_default())
+}
+
+/// One free run of [`free_runs`].
+#[derive(Clone, Copy)]
+pub struct RunSpec<'a> {
+    /// The model, from its start state.
+    pub model: &'a TrainedCpg,
+    /// Its controls.
+    pub controls: &'a ControlSchedule,
+    /// Steps.
+    pub steps: usize,
+    /// An optional push.
+    pub push: Option<&'a Push>,
+    /// Gaussian state noise (variance, seed) after every update.
+    pub noise: Option<(f64, u64)>,
+}
+
+/// A schedule at a model's rate, as the reservoir's batched runs read controls.
+struct At<'a>(&'a ControlSchedule, f64);
+
+impl Controls for At<'_> {
+    fn fill(&self, step: usize, out: &mut [f64]) {
+        self.0.fill(step, self.1, out)
     }
-    let mut y = Vec::with_capacity(steps * d);
-    let mut ctl = vec![0.0; u];
-    for k in 0..steps {
-        controls.fill(k, rate, &mut ctl);
-        match push {
-            Some(p) if (p.at..p.at + p.len).contains(&k) => g.step_clamped(&ctl, &p.values)?,
-            _ => g.step(&ctl)?,
-        };
-        y.extend_from_slice(g.normalised_output());
+}
+
+/// The threads a free run may use: every core from outside a parallel loop,
+/// one inside it (the loop's other iterations keep the other cores busy).
+pub fn threads() -> usize {
+    if rayon::current_thread_index().is_some() { 1 } else { rayon::current_num_threads() }
+}
+
+/// Runs several free runs at once (see [`cpg_reservoir::batch`]): runs whose
+/// models share a reservoir's weights advance with one matrix product per
+/// step. Returns each run's normalised outputs (`steps × D`), the same bits as
+/// [`free_run_with`] gives for it alone; a run that diverged is an error.
+pub fn free_runs(runs: &[RunSpec<'_>]) -> Result<Vec<Vec<f64>>> {
+    free_runs_each(runs)?.into_iter().collect()
+}
+
+/// [`free_runs`], with each run's outcome on its own: a run that diverged
+/// does not hide the others. The outer error is a schedule that does not fit its model.
+pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
+    let mut at = Vec::with_capacity(runs.len());
+    let mut holds = Vec::with_capacity(runs.len());
+    for r in runs {
+        r.controls.check(r.model.controls.len())?;
+        at.push(At(r.controls, r.model.provenance.sample_rate_hz));
+        holds.push(r.push.map(|p| Hold { from: p.at, len: p.len, values: p.values.clone() }));
     }
-    Ok(y)
+    let batch: Vec<Run<'_>> = runs
+        .iter()
+        .zip(&at)
+        .zip(&holds)
+        .map(|((r, a), h)| Run { model: r.model, controls: a, steps: r.steps, hold: h.as_ref(), noise: r.noise })
+        .collect();
+    Ok(cpg_reservoir::batch::free_runs(&batch, threads()).into_iter().map(|r| r.map_err(Error::from)).collect())
 }
 
 /// One control setting of a model judged: what `cpg evaluate` prints and the
@@ -349,9 +390,13 @@ pub fn judge(model: &TrainedCpg, steps: usize, controls: Option<&ControlSchedule
                 (release + 4 * p) as f64 / rate
             )));
         }
-        let y = free_run(model, &s, steps, None)?;
         let after = (40 * p).min(steps - release);
-        let pushed = free_run(model, &s, release + after, Some(&push))?;
+        let mut ys = free_runs(&[
+            RunSpec { model, controls: &s, steps, push: None, noise: None },
+            RunSpec { model, controls: &s, steps: release + after, push: Some(&push), noise: None },
+        ])?
+        .into_iter();
+        let (y, pushed) = (ys.next().unwrap_or_default(), ys.next().unwrap_or_default());
         let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;
         out.push(Judged {
             teacher: t.label.clone(),

@@ -110,6 +110,19 @@ pub fn memory_estimate_mib(rc: &ReservoirConfig, s: &TrainSettings, p: &Prepared
 
 /// Trains a model on prepared data with the reservoir seed `seed`.
 pub fn train_prepared(c: &Config, p: &Prepared, seed: u64) -> Result<TrainedCpg> {
+    train_prepared_on(c, p, seed, None)
+}
+
+/// The reservoir `c` draws for `seed` on prepared data `p`.
+pub fn reservoir_for(c: &Config, p: &Prepared, seed: u64) -> Result<Reservoir> {
+    let rc = reservoir_config(c, p.outputs.len())?.check().map_err(cpg_reservoir::Error::from)?;
+    Ok(Reservoir::new(&rc, seed)?)
+}
+
+/// [`train_prepared`] on a reservoir already drawn (by [`reservoir_for`] for
+/// the same configuration and seed: the same model, without drawing the
+/// weights and their spectral radius again); `None` draws it.
+pub fn train_prepared_on(c: &Config, p: &Prepared, seed: u64, drawn: Option<Reservoir>) -> Result<TrainedCpg> {
     let rc = reservoir_config(c, p.outputs.len())?.check().map_err(cpg_reservoir::Error::from)?;
     let settings = train_settings(c)?;
     let mib = memory_estimate_mib(&rc, &settings, p);
@@ -127,7 +140,10 @@ pub fn train_prepared(c: &Config, p: &Prepared, seed: u64) -> Result<TrainedCpg>
             hint: "fewer neurons, samples, penalties or noise draws",
         });
     }
-    let reservoir = Reservoir::new(&rc, seed)?;
+    let reservoir = match drawn {
+        Some(r) if r.seed() == seed && r.config() == rc.get() => r,
+        _ => Reservoir::new(&rc, seed)?,
+    };
     let training = cpg_reservoir::train(&reservoir, &p.data, &settings)?;
     let model = TrainedCpg::new(
         reservoir,

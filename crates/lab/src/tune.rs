@@ -13,10 +13,11 @@ use crate::config::{Config, OrbitSection, PushSection};
 use crate::error::{Error, Result};
 use crate::experiment::Progress;
 use crate::experiment::stability::push_for;
-use crate::measure::{AMPLITUDE_TOLERANCE, PERIOD_TOLERANCE, free_run_with, recovery, stability};
-use crate::prepare::prepare;
+use crate::measure::{AMPLITUDE_TOLERANCE, PERIOD_TOLERANCE, Push, RunSpec, free_runs_each, recovery, stability};
+use crate::prepare::{Prepared, prepare};
 use crate::schedule::ControlSchedule;
 use crate::train::train_prepared;
+use cpg_reservoir::TrainedCpg;
 
 /// Most candidates of one search.
 pub const MAX_BUDGET: usize = 10_000;
@@ -203,9 +204,8 @@ pub fn apply(base: &Config, k: &Knobs) -> Config {
     c
 }
 
-/// Trains `c` on one seed and judges it at every teacher's control setting.
-fn judge(c: &Config, seed: u64, s: &TuneSettings) -> Result<SeedScore> {
-    let failed = |seed| SeedScore {
+fn failed(seed: u64) -> SeedScore {
+    SeedScore {
         seed,
         passed: false,
         period_error: None,
@@ -213,79 +213,145 @@ fn judge(c: &Config, seed: u64, s: &TuneSettings) -> Result<SeedScore> {
         end_nmse: f64::INFINITY,
         recovery_s: None,
         cost: 100.0,
-    };
-    let p = prepare(c)?;
-    let m = match train_prepared(c, &p, seed) {
-        Ok(m) => m,
-        // A candidate whose every penalty diverges is a bad candidate, not an error.
-        Err(Error::Reservoir(cpg_reservoir::Error::AllDiverged { .. })) => return Ok(failed(seed)),
-        Err(e) => return Err(e),
-    };
-    let rate = c.data.rate_hz;
-    let d = m.outputs.len();
-    let n = (s.long_run_s * rate).round() as usize;
-    let mut worst = SeedScore {
-        seed,
-        passed: true,
-        period_error: Some(0.0),
-        amplitude_error: 0.0,
-        end_nmse: 0.0,
-        recovery_s: Some(0.0),
-        cost: 0.0,
-    };
-    for (k, t) in m.teachers.iter().enumerate() {
-        let ctl = ControlSchedule::Constant(t.controls.clone());
-        let noise = (s.noise_variance > 0.0).then_some((s.noise_variance, seed * 1000 + k as u64));
-        let y = match free_run_with(&m, &ctl, n, None, noise) {
-            Ok(y) => y,
-            Err(_) => return Ok(failed(seed)),
-        };
-        let st = stability(&y, d, t, 0, rate);
-        let push = push_for(&PushSection::default(), t, d, rate);
-        let release = push.at + push.len;
-        let after = (40 * (t.cycle.len() / d)).min(n.saturating_sub(release));
-        let pushed = match free_run_with(&m, &ctl, release + after, Some(&push), None) {
-            Ok(y) => y,
-            Err(_) => return Ok(failed(seed)),
-        };
-        let clean = free_run_with(&m, &ctl, release + after, None, None)?;
-        let rec = recovery(&clean, &pushed, d, &t.cycle, release, rate)?;
-        let amp = (0..d).map(|c| (st.amplitude_ratio(c) - 1.0).abs()).fold(0.0, f64::max);
-        let per = st.period_error().map(f64::abs);
-        let cost = match (per, st.decayed_at_s) {
-            (Some(pe), None) => {
-                pe / PERIOD_TOLERANCE
-                    + amp / AMPLITUDE_TOLERANCE
-                    + st.end.aligned_nmse / 0.01
-                    + rec.orbit_s.unwrap_or(10.0)
-            }
-            _ => 100.0,
-        };
-        worst.passed &= st.accurate && st.converged && rec.orbit_s.is_some();
-        worst.period_error = match (worst.period_error, per) {
-            (Some(a), Some(b)) => Some(a.max(b)),
-            _ => None,
-        };
-        worst.amplitude_error = worst.amplitude_error.max(amp);
-        worst.end_nmse = worst.end_nmse.max(st.end.aligned_nmse);
-        worst.recovery_s = match (worst.recovery_s, rec.orbit_s) {
-            (Some(a), Some(b)) => Some(a.max(b)),
-            _ => None,
-        };
-        worst.cost = worst.cost.max(cost);
     }
-    if m.teachers.is_empty() {
-        return Err(Error::Data("cpg tune needs a looped (periodic) segment to judge the rhythm".into()));
-    }
-    Ok(worst)
 }
 
-fn evaluate(index: usize, knobs: Knobs, c: Config, s: &TuneSettings) -> Result<TunedCandidate> {
-    let seeds: Vec<SeedScore> = (0..s.seeds).map(|k| judge(&c, c.reservoir.seed + k, s)).collect::<Result<_>>()?;
-    let mean_cost = seeds.iter().map(|x| x.cost).sum::<f64>() / seeds.len() as f64;
-    let cost_range = seeds.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x.cost), b.max(x.cost)));
-    let passed = seeds.iter().filter(|x| x.passed).count();
-    Ok(TunedCandidate { index, knobs, seeds, passed, mean_cost, cost_range, config: c })
+/// Judges models trained on one seed, at every teacher's control setting:
+/// all their runs (a long noisy one, a pushed one and its clean twin per
+/// teacher) advance together, one pass over the shared reservoir per step.
+/// `None` is a candidate whose every penalty diverged.
+fn judge(models: &[Option<TrainedCpg>], seed: u64, rate: f64, s: &TuneSettings) -> Result<Vec<SeedScore>> {
+    let n = (s.long_run_s * rate).round() as usize;
+    struct Plan<'a> {
+        m: &'a TrainedCpg,
+        k: usize,
+        ctl: ControlSchedule,
+        push: Push,
+        short: usize,
+    }
+    let mut plans = Vec::new();
+    for m in models.iter().flatten() {
+        if m.teachers.is_empty() {
+            return Err(Error::Data("cpg tune needs a looped (periodic) segment to judge the rhythm".into()));
+        }
+        let d = m.outputs.len();
+        for (k, t) in m.teachers.iter().enumerate() {
+            let push = push_for(&PushSection::default(), t, d, rate);
+            let release = push.at + push.len;
+            let after = (40 * (t.cycle.len() / d)).min(n.saturating_sub(release));
+            plans.push(Plan { m, k, ctl: ControlSchedule::Constant(t.controls.clone()), push, short: release + after });
+        }
+    }
+    let mut specs = Vec::with_capacity(3 * plans.len());
+    for p in &plans {
+        let noise = (s.noise_variance > 0.0).then_some((s.noise_variance, seed * 1000 + p.k as u64));
+        specs.push(RunSpec { model: p.m, controls: &p.ctl, steps: n, push: None, noise });
+        specs.push(RunSpec { model: p.m, controls: &p.ctl, steps: p.short, push: Some(&p.push), noise: None });
+        specs.push(RunSpec { model: p.m, controls: &p.ctl, steps: p.short, push: None, noise: None });
+    }
+    let mut runs = free_runs_each(&specs)?.into_iter();
+    let mut plans = plans.iter().peekable();
+    let mut out = Vec::with_capacity(models.len());
+    for m in models {
+        let Some(m) = m else {
+            out.push(failed(seed));
+            continue;
+        };
+        let d = m.outputs.len();
+        let mut worst = SeedScore {
+            seed,
+            passed: true,
+            period_error: Some(0.0),
+            amplitude_error: 0.0,
+            end_nmse: 0.0,
+            recovery_s: Some(0.0),
+            cost: 0.0,
+        };
+        let mut diverged = false;
+        while let Some(p) = plans.next_if(|p| std::ptr::eq(p.m, m)) {
+            let t = &m.teachers[p.k];
+            let (y, pushed, clean) = match (runs.next(), runs.next(), runs.next()) {
+                (Some(Ok(y)), Some(Ok(pushed)), Some(Ok(clean))) => (y, pushed, clean),
+                _ => {
+                    diverged = true;
+                    continue;
+                }
+            };
+            let st = stability(&y, d, t, 0, rate);
+            let rec = recovery(&clean, &pushed, d, &t.cycle, p.push.at + p.push.len, rate)?;
+            let amp = (0..d).map(|c| (st.amplitude_ratio(c) - 1.0).abs()).fold(0.0, f64::max);
+            let per = st.period_error().map(f64::abs);
+            let cost = match (per, st.decayed_at_s) {
+                (Some(pe), None) => {
+                    pe / PERIOD_TOLERANCE
+                        + amp / AMPLITUDE_TOLERANCE
+                        + st.end.aligned_nmse / 0.01
+                        + rec.orbit_s.unwrap_or(10.0)
+                }
+                _ => 100.0,
+            };
+            worst.passed &= st.accurate && st.converged && rec.orbit_s.is_some();
+            worst.period_error = match (worst.period_error, per) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                _ => None,
+            };
+            worst.amplitude_error = worst.amplitude_error.max(amp);
+            worst.end_nmse = worst.end_nmse.max(st.end.aligned_nmse);
+            worst.recovery_s = match (worst.recovery_s, rec.orbit_s) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                _ => None,
+            };
+            worst.cost = worst.cost.max(cost);
+        }
+        out.push(if diverged { failed(seed) } else { worst });
+    }
+    Ok(out)
+}
+
+/// Trains and judges every candidate on every seed: seed by seed, the
+/// candidates are trained in parallel and then judged together (they differ
+/// only in scalars, so they share the seed's reservoir weights).
+fn evaluate(
+    jobs: Vec<(usize, Knobs, Config)>,
+    s: &TuneSettings,
+    progress: &dyn Progress,
+) -> Result<Vec<TunedCandidate>> {
+    let prepared: Vec<Prepared> = jobs.par_iter().map(|(_, _, c)| prepare(c)).collect::<Result<_>>()?;
+    let rate = jobs.first().map_or(120.0, |(_, _, c)| c.data.rate_hz);
+    let mut scores: Vec<Vec<SeedScore>> = vec![Vec::with_capacity(s.seeds as usize); jobs.len()];
+    progress.start("seeds × candidates", s.seeds * jobs.len() as u64);
+    for k in 0..s.seeds {
+        let models: Vec<Option<TrainedCpg>> = jobs
+            .par_iter()
+            .zip(&prepared)
+            .map(|((_, _, c), p)| {
+                let m = match train_prepared(c, p, c.reservoir.seed + k) {
+                    Ok(m) => Ok(Some(m)),
+                    // A candidate whose every penalty diverges is a bad candidate, not an error.
+                    Err(Error::Reservoir(cpg_reservoir::Error::AllDiverged { .. })) => Ok(None),
+                    Err(e) => Err(e),
+                };
+                progress.tick();
+                m
+            })
+            .collect::<Result<_>>()?;
+        let seed = jobs.first().map_or(k, |(_, _, c)| c.reservoir.seed + k);
+        for (all, one) in scores.iter_mut().zip(judge(&models, seed, rate, s)?) {
+            all.push(one);
+        }
+    }
+    progress.finish();
+    Ok(jobs
+        .into_iter()
+        .zip(scores)
+        .map(|((index, knobs, config), seeds)| {
+            let mean_cost = seeds.iter().map(|x| x.cost).sum::<f64>() / seeds.len() as f64;
+            let cost_range =
+                seeds.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x.cost), b.max(x.cost)));
+            let passed = seeds.iter().filter(|x| x.passed).count();
+            TunedCandidate { index, knobs, seeds, passed, mean_cost, cost_range, config }
+        })
+        .collect())
 }
 
 /// Searches `budget` random candidates around `base` (which is evaluated too).
@@ -307,16 +373,7 @@ pub fn tune(base: &Config, s: &TuneSettings, progress: &dyn Progress) -> Result<
         let k = draw(&mut g);
         jobs.push((i, k.clone(), apply(base, &k)));
     }
-    progress.start("candidates", jobs.len() as u64);
-    let mut candidates: Vec<TunedCandidate> = jobs
-        .into_par_iter()
-        .map(|(i, k, c)| {
-            let r = evaluate(i, k, c, s);
-            progress.tick();
-            r
-        })
-        .collect::<Result<_>>()?;
-    progress.finish();
+    let mut candidates = evaluate(jobs, s, progress)?;
     candidates
         .sort_by(|a, b| b.passed.cmp(&a.passed).then(a.mean_cost.total_cmp(&b.mean_cost)).then(a.index.cmp(&b.index)));
     Ok(TuneResult { settings: s.clone(), candidates })

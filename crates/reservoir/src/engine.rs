@@ -1,22 +1,65 @@
 //! The reservoir dynamics in one precision:
-//! `x[k+1] = (1−λ)·x[k] + λ·f(W·x[k] + W_in·u[k] + W_fb·y[k] + b)`, `y[k] = W_out·x[k] + b_out`.
+//! `x[k+1] = (1−λ)·x[k] + λ·f(ρ·(Ŵ·x[k]) + W_in·u[k] + W_fb·y[k] + b)`, `y[k] = W_out·x[k] + b_out`,
+//! with `Ŵ` the recurrent weights at spectral radius 1 and `ρ` the radius.
+//!
+//! What several streams can share is split from what each has of its own:
+//! [`Shared`] holds `Ŵ` (the only large matrix), [`Dynamics`] the radius, leak
+//! rate, couplings and biases of one stream. Streams whose reservoirs have
+//! the same `Ŵ` (same size, connectivity and seed) advance together, one
+//! matrix product per step for all of them, whatever else differs.
 
 use cpg_regression::Readout;
+use pulp::{Simd, WithSimd};
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 
 use crate::config::Activation;
-use pulp::{Simd, WithSimd};
-
-use crate::kernel::{SimdDot, matmul_cols};
+use crate::kernel::{Aligned, SimdDot, matmul_cols, pack, padded};
 use crate::reservoir::Reservoir;
 
-/// Weights converted to the working precision, laid out for the inner loops.
+/// `Ŵ` converted to the working precision and packed for the product
+/// ([`crate::kernel::pack`]: panels of rows, padded to a height of `np`).
 #[derive(Debug, Clone)]
-pub(crate) struct Engine<R: SimdDot> {
+pub(crate) struct Shared<R: SimdDot> {
+    /// Neurons.
     pub n: usize,
+    /// Padded height of states and columns (a multiple of [`crate::kernel::PAD`]).
+    pub np: usize,
+    /// Outputs.
     pub d: usize,
+    /// Control inputs.
     pub u: usize,
-    /// Recurrent weights transposed (column-major W): column `j` is contiguous.
-    wt: Vec<R>,
+    wt: Aligned<R>,
+    /// The instruction set the hot loops are compiled for, detected at run
+    /// time. Results do not depend on it (see [`crate::kernel`]).
+    arch: pulp::Arch,
+}
+
+impl<R: SimdDot> Shared<R> {
+    pub fn new(res: &Reservoir) -> Shared<R> {
+        let n = res.n_neurons();
+        Shared {
+            n,
+            np: padded(n),
+            d: res.n_outputs(),
+            u: res.n_inputs(),
+            wt: pack(res.w_unit(), n, R::from_f64),
+            arch: pulp::Arch::new(),
+        }
+    }
+
+    /// `pre[c] = Ŵ·xs[c]` for the rows `rows` of every column (height `np`).
+    #[inline(always)]
+    pub fn product<S: Simd>(&self, simd: S, xs: &[R], pre: &mut [R], rows: (usize, usize)) {
+        matmul_cols(simd, self.wt.as_slice(), (self.np, self.n), xs, pre, rows);
+    }
+}
+
+/// One stream's own part of the dynamics, in the working precision.
+#[derive(Debug, Clone)]
+pub(crate) struct Dynamics<R: SimdDot> {
+    rho: R,
     /// Feedback weights transposed: `D × N`, one contiguous column per output.
     fb_t: Vec<R>,
     /// Input weights transposed: `U × N`.
@@ -30,48 +73,6 @@ pub(crate) struct Engine<R: SimdDot> {
     /// The control input that multiplies the leak rate.
     tempo: Option<usize>,
     logistic: bool,
-    /// The instruction set the hot loops are compiled for, detected at run
-    /// time (AVX2 where present). Results do not depend on it: the loops do
-    /// the same lane-wise multiplications and additions, never fused.
-    arch: pulp::Arch,
-}
-
-/// A readout in the working precision: `D × N` weights and `D` biases.
-#[derive(Debug, Clone)]
-pub(crate) struct ReadoutR<R: SimdDot> {
-    w: Vec<R>,
-    b: Vec<R>,
-}
-
-impl<R: SimdDot> ReadoutR<R> {
-    pub fn new(r: &Readout) -> ReadoutR<R> {
-        ReadoutR {
-            w: r.weights.iter().map(|&v| R::from_f64(v)).collect(),
-            b: r.bias.iter().map(|&v| R::from_f64(v)).collect(),
-        }
-    }
-
-    /// `y = W_out·x + b_out`.
-    #[inline(always)]
-    pub fn apply<S: Simd>(&self, simd: S, x: &[R], y: &mut [R]) {
-        let n = x.len();
-        for (k, yk) in y.iter_mut().enumerate() {
-            *yk = R::dot_simd(simd, &self.w[k * n..(k + 1) * n], x) + self.b[k];
-        }
-    }
-
-    /// [`apply`](Self::apply) in the best instruction set of this machine.
-    pub fn apply_dispatch(&self, arch: pulp::Arch, x: &[R], y: &mut [R]) {
-        struct Op<'a, R: SimdDot>(&'a ReadoutR<R>, &'a [R], &'a mut [R]);
-        impl<R: SimdDot> WithSimd for Op<'_, R> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: Simd>(self, simd: S) {
-                self.0.apply(simd, self.1, self.2)
-            }
-        }
-        arch.dispatch(Op(self, x, y))
-    }
 }
 
 fn transpose<R: SimdDot>(m: &[f64], rows: usize, cols: usize) -> Vec<R> {
@@ -82,8 +83,8 @@ fn transpose<R: SimdDot>(m: &[f64], rows: usize, cols: usize) -> Vec<R> {
     t
 }
 
-impl<R: SimdDot> Engine<R> {
-    pub fn new(res: &Reservoir) -> Engine<R> {
+impl<R: SimdDot> Dynamics<R> {
+    pub fn new(res: &Reservoir) -> Dynamics<R> {
         let c = res.config();
         let (n, d, u) = (res.n_neurons(), res.n_outputs(), res.n_inputs());
         // An input with a center drives (u − center): fold −W_in·center into the bias.
@@ -97,11 +98,8 @@ impl<R: SimdDot> Engine<R> {
                 R::from_f64(b - shift)
             })
             .collect();
-        Engine {
-            n,
-            d,
-            u,
-            wt: transpose(res.w(), n, n),
+        Dynamics {
+            rho: R::from_f64(c.spectral_radius),
             fb_t: transpose(res.w_feedback(), n, d),
             in_t: transpose(w_in, n, u),
             bias,
@@ -110,24 +108,36 @@ impl<R: SimdDot> Engine<R> {
             leak_f64: c.leak_rate,
             tempo: c.tempo_input,
             logistic: c.activation == Activation::Logistic,
-            arch: pulp::Arch::new(),
         }
     }
 
-    /// Completes an update once `pre` holds `W·x`: adds bias, feedback and
-    /// inputs, applies `f`, integrates with the leak rate, adds `noise`.
+    /// Completes an update of the `N` neurons once `pre` holds their
+    /// `Ŵ·x`: scales by the radius, adds bias, feedback and inputs, applies
+    /// `f`, integrates with the leak rate, adds `noise`.
     #[inline(always)]
-    fn finish(&self, x: &mut [R], pre: &mut [R], y: &[R], u: &[R], noise: Option<&[R]>) {
-        for (p, b) in pre.iter_mut().zip(&self.bias) {
+    pub fn finish(&self, x: &mut [R], pre: &mut [R], y: &[R], u: &[R], noise: Option<&[R]>) {
+        self.finish_rows(0, x, pre, y, u, noise)
+    }
+
+    /// [`finish`](Self::finish) for the neurons `i0 .. i0 + x.len()` only:
+    /// every neuron's update is its own, so rows finished apart give the
+    /// same bits as rows finished together.
+    #[inline(always)]
+    pub fn finish_rows(&self, i0: usize, x: &mut [R], pre: &mut [R], y: &[R], u: &[R], noise: Option<&[R]>) {
+        let n = self.bias.len();
+        let i1 = i0 + x.len();
+        debug_assert!(pre.len() == x.len() && i1 <= n);
+        for (p, b) in pre.iter_mut().zip(&self.bias[i0..i1]) {
+            *p = self.rho * *p;
             *p = *p + *b;
         }
         for (k, &yk) in y.iter().enumerate() {
-            for (p, wv) in pre.iter_mut().zip(&self.fb_t[k * self.n..(k + 1) * self.n]) {
+            for (p, wv) in pre.iter_mut().zip(&self.fb_t[k * n + i0..k * n + i1]) {
                 *p = *p + *wv * yk;
             }
         }
         for (k, &uk) in u.iter().enumerate() {
-            for (p, wv) in pre.iter_mut().zip(&self.in_t[k * self.n..(k + 1) * self.n]) {
+            for (p, wv) in pre.iter_mut().zip(&self.in_t[k * n + i0..k * n + i1]) {
                 *p = *p + *wv * uk;
             }
         }
@@ -155,34 +165,72 @@ impl<R: SimdDot> Engine<R> {
             }
         }
     }
+}
 
-    /// One update of one state vector. `pre` is scratch of length N.
-    pub fn update(&self, x: &mut [R], y: &[R], u: &[R], pre: &mut [R], noise: Option<&[R]>) {
-        struct Op<'a, R: SimdDot>(&'a Engine<R>, &'a mut [R], &'a [R], &'a [R], &'a mut [R], Option<&'a [R]>);
-        impl<R: SimdDot> WithSimd for Op<'_, R> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: Simd>(self, simd: S) {
-                self.0.update_simd(simd, self.1, self.2, self.3, self.4, self.5)
-            }
+/// One reservoir's dynamics: the shared `Ŵ` and its own scalars.
+#[derive(Debug, Clone)]
+pub(crate) struct Engine<R: SimdDot> {
+    pub shared: Shared<R>,
+    pub dynamics: Dynamics<R>,
+}
+
+/// A readout in the working precision: `D × N` weights and `D` biases.
+#[derive(Debug, Clone)]
+pub(crate) struct ReadoutR<R: SimdDot> {
+    w: Vec<R>,
+    b: Vec<R>,
+}
+
+impl<R: SimdDot> ReadoutR<R> {
+    pub fn new(r: &Readout) -> ReadoutR<R> {
+        ReadoutR {
+            w: r.weights.iter().map(|&v| R::from_f64(v)).collect(),
+            b: r.bias.iter().map(|&v| R::from_f64(v)).collect(),
         }
-        self.arch.dispatch(Op(self, x, y, u, pre, noise))
+    }
+
+    /// `y = W_out·x + b_out` for the first `N` values of `x`.
+    #[inline(always)]
+    pub fn apply<S: Simd>(&self, simd: S, x: &[R], y: &mut [R]) {
+        let n = self.w.len() / self.b.len().max(1);
+        let x = &x[..n];
+        for (k, yk) in y.iter_mut().enumerate() {
+            *yk = R::dot_simd(simd, &self.w[k * n..(k + 1) * n], x) + self.b[k];
+        }
+    }
+}
+
+impl<R: SimdDot> Engine<R> {
+    pub fn new(res: &Reservoir) -> Engine<R> {
+        Engine { shared: Shared::new(res), dynamics: Dynamics::new(res) }
+    }
+
+    /// A state of the padded height, from `N` values.
+    pub fn state(&self, x: &[f64]) -> Aligned<R> {
+        let mut s = Aligned::zeros(self.shared.np);
+        for (a, b) in s.as_mut_slice().iter_mut().zip(x) {
+            *a = R::from_f64(*b);
+        }
+        s
     }
 
     /// The instruction-set handle the engine dispatches with.
     pub fn arch(&self) -> pulp::Arch {
-        self.arch
+        self.shared.arch
     }
 
+    /// One update of one state vector (padded height) inside code compiled
+    /// for `simd`. `pre` is scratch of the same height.
     #[inline(always)]
-    fn update_simd<S: Simd>(&self, simd: S, x: &mut [R], y: &[R], u: &[R], pre: &mut [R], noise: Option<&[R]>) {
-        R::gemm_simd(simd, &self.wt, self.n, x, pre);
-        self.finish(x, pre, y, u, noise);
+    pub fn update_simd<S: Simd>(&self, simd: S, x: &mut [R], y: &[R], u: &[R], pre: &mut [R], noise: Option<&[R]>) {
+        let (n, np) = (self.shared.n, self.shared.np);
+        self.shared.product(simd, x, pre, (0, np));
+        self.dynamics.finish(&mut x[..n], &mut pre[..n], y, u, noise);
     }
 
     /// Teacher forcing: feeds `teacher[k]` (and `controls[k]`) for every row
     /// `k`, calling `record(k, x)` with the state after each update (the state
-    /// whose readout should predict `teacher[k + 1]`).
+    /// whose readout should predict `teacher[k + 1]`). `x` has the padded height.
     pub fn teacher_force(&self, x: &mut [R], teacher: &[f64], controls: &[f64], record: impl FnMut(usize, &[R])) {
         struct Op<'a, R: SimdDot, F>(&'a Engine<R>, &'a mut [R], &'a [f64], &'a [f64], F);
         impl<R: SimdDot, F: FnMut(usize, &[R])> WithSimd for Op<'_, R, F> {
@@ -192,7 +240,7 @@ impl<R: SimdDot> Engine<R> {
                 self.0.teacher_force_simd(simd, self.1, self.2, self.3, self.4)
             }
         }
-        self.arch.dispatch(Op(self, x, teacher, controls, record))
+        self.shared.arch.dispatch(Op(self, x, teacher, controls, record))
     }
 
     #[inline(always)]
@@ -204,106 +252,371 @@ impl<R: SimdDot> Engine<R> {
         controls: &[f64],
         mut record: impl FnMut(usize, &[R]),
     ) {
-        let t = teacher.len() / self.d;
-        let mut y = vec![R::ZERO; self.d];
-        let mut u = vec![R::ZERO; self.u];
-        let mut pre = vec![R::ZERO; self.n];
+        let Shared { n, np, d, u, .. } = self.shared;
+        let t = teacher.len() / d;
+        let mut y = vec![R::ZERO; d];
+        let mut uu = vec![R::ZERO; u];
+        let mut pre_buf = Aligned::zeros(np);
+        let pre = pre_buf.as_mut_slice();
         for k in 0..t {
-            for (a, b) in y.iter_mut().zip(&teacher[k * self.d..(k + 1) * self.d]) {
+            for (a, b) in y.iter_mut().zip(&teacher[k * d..(k + 1) * d]) {
                 *a = R::from_f64(*b);
             }
-            for (a, b) in u.iter_mut().zip(&controls[k * self.u..(k + 1) * self.u]) {
+            for (a, b) in uu.iter_mut().zip(&controls[k * u..(k + 1) * u]) {
                 *a = R::from_f64(*b);
             }
-            self.update_simd(simd, x, &y, &u, &mut pre, None);
-            record(k, x);
-        }
-    }
-
-    /// Free runs of several columns at once (see [`Batch`]). Each step is one
-    /// batched product `W·[x_1 … x_K]`. While a hold is active its values
-    /// replace the fed-back outputs of every column. `sink(step, column, y)`
-    /// receives each column's output before it is fed back; it returns
-    /// `false` to stop reporting that column.
-    pub fn free_run_batch(&self, batch: &Batch<'_, R>, sink: &mut dyn FnMut(usize, usize, &[R]) -> bool) {
-        struct Op<'a, 'b, R: SimdDot>(&'a Engine<R>, &'a Batch<'a, R>, &'b mut dyn FnMut(usize, usize, &[R]) -> bool);
-        impl<R: SimdDot> WithSimd for Op<'_, '_, R> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: Simd>(self, simd: S) {
-                self.0.free_run_batch_simd(simd, self.1, self.2)
-            }
-        }
-        self.arch.dispatch(Op(self, batch, sink))
-    }
-
-    #[inline(always)]
-    fn free_run_batch_simd<S: Simd>(
-        &self,
-        simd: S,
-        batch: &Batch<'_, R>,
-        sink: &mut dyn FnMut(usize, usize, &[R]) -> bool,
-    ) {
-        let Batch { steps, x0, readouts, noises, controls, holds } = *batch;
-        let (n, d) = (self.n, self.d);
-        let k_cols = readouts.len();
-        let mut xs: Vec<R> = x0.iter().copied().cycle().take(n * k_cols).collect();
-        let mut pre = vec![R::ZERO; n * k_cols];
-        let mut ys = vec![R::ZERO; d * k_cols];
-        let mut u = vec![R::ZERO; self.u];
-        let mut live = vec![true; k_cols];
-        let mut held: Vec<R> = vec![R::ZERO; d];
-        for s in 0..steps {
-            if !live.iter().any(|l| *l) {
-                break;
-            }
-            for c in 0..k_cols {
-                let y = &mut ys[c * d..(c + 1) * d];
-                readouts[c].apply(simd, &xs[c * n..(c + 1) * n], y);
-                if live[c] {
-                    live[c] = sink(s, c, y);
-                }
-            }
-            let hold = holds.iter().find(|h| (h.from..h.from + h.len).contains(&s));
-            if let Some(h) = hold {
-                for (a, b) in held.iter_mut().zip(&h.values) {
-                    *a = R::from_f64(*b);
-                }
-            }
-            for (a, b) in u.iter_mut().zip(&controls[s * self.u..(s + 1) * self.u]) {
-                *a = R::from_f64(*b);
-            }
-            matmul_cols(simd, &self.wt, n, &xs, &mut pre);
-            for c in 0..k_cols {
-                let noise = noises[c].map(|z| &z[s * n..(s + 1) * n]);
-                let fed = if hold.is_some() { &held[..] } else { &ys[c * d..(c + 1) * d] };
-                self.finish(&mut xs[c * n..(c + 1) * n], &mut pre[c * n..(c + 1) * n], fed, &u, noise);
-            }
+            self.update_simd(simd, x, &y, &uu, pre, None);
+            record(k, &x[..n]);
         }
     }
 }
 
-/// The free runs advanced together by [`Engine::free_run_batch`]: columns
-/// with their own readout and noise, from one start state, under the same
-/// controls and holds. `controls` and every noise sequence cover `steps` steps.
+/// Where a column's state noise comes from.
 #[derive(Clone, Copy)]
-pub(crate) struct Batch<'a, R: SimdDot> {
-    /// Steps to run.
-    pub steps: usize,
-    /// The common start state (length N).
+pub(crate) enum NoiseSource<'a, R: SimdDot> {
+    /// None.
+    Off,
+    /// Precomputed, `steps × N` (validation's common random numbers).
+    Table(&'a [R]),
+    /// Drawn as the [`Generator`](crate::Generator) draws it: `N` normals
+    /// per step from the stream of `seed`, times `sigma`.
+    Drawn { seed: u64, sigma: f64 },
+}
+
+/// Where a column's control values come from.
+#[derive(Clone, Copy)]
+pub(crate) enum ControlSource<'a> {
+    /// `steps × U`, precomputed.
+    Table(&'a [f64]),
+    /// A function of the step.
+    Fn(&'a (dyn crate::batch::Controls + 'a)),
+}
+
+/// One free run of a batch: its own dynamics, readout, start, noise,
+/// controls and holds, sharing `Ŵ` with the rest.
+#[derive(Clone, Copy)]
+pub(crate) struct Column<'a, R: SimdDot> {
+    pub dynamics: &'a Dynamics<R>,
+    pub readout: &'a ReadoutR<R>,
+    /// Start state, `N` values.
     pub x0: &'a [R],
-    /// One readout per column.
-    pub readouts: &'a [&'a ReadoutR<R>],
-    /// One noise sequence (`steps × N`) or none per column.
-    pub noises: &'a [Option<&'a [R]>],
-    /// `steps × U` control values.
-    pub controls: &'a [f64],
-    /// Held outputs.
+    pub noise: NoiseSource<'a, R>,
+    pub controls: ControlSource<'a>,
     pub holds: &'a [Hold],
 }
 
-/// During steps `from .. from + len` of a validation free run, the fed-back
-/// outputs are held at `values` (normalised units): the paper's perturbation.
+/// Receives a column's outputs, step by step, before they are fed back.
+pub(crate) trait Observer<R> {
+    /// Output `y` of step `step`; `false` stops the column (it diverged or is done).
+    fn see(&mut self, step: usize, y: &[R]) -> bool;
+}
+
+impl<R, F: FnMut(usize, &[R]) -> bool> Observer<R> for F {
+    fn see(&mut self, step: usize, y: &[R]) -> bool {
+        self(step, y)
+    }
+}
+
+/// Advances `columns` together for `steps` steps, one product `Ŵ·[x_1 … x_K]`
+/// per step; `observers[c]` sees column `c`'s outputs, and a column whose
+/// observer returns `false` is advanced no further (the product shrinks).
+/// A column's results do not depend on the other columns, their number or
+/// their order. Everything is allocated before the first step.
+pub(crate) fn run_columns<R: SimdDot, O: Observer<R>>(
+    shared: &Shared<R>,
+    columns: &[Column<'_, R>],
+    observers: &mut [O],
+    steps: usize,
+) {
+    struct Op<'a, 'b, R: SimdDot, O>(&'a Shared<R>, &'a [Column<'b, R>], &'a mut [O], usize);
+    impl<R: SimdDot, O: Observer<R>> WithSimd for Op<'_, '_, R, O> {
+        type Output = ();
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, simd: S) {
+            run_columns_simd(simd, self.0, self.1, self.2, self.3)
+        }
+    }
+    assert_eq!(columns.len(), observers.len());
+    shared.arch.dispatch(Op(shared, columns, observers, steps))
+}
+
+#[inline(always)]
+fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
+    simd: S,
+    shared: &Shared<R>,
+    columns: &[Column<'_, R>],
+    observers: &mut [O],
+    steps: usize,
+) {
+    let Shared { n, np, d, u, .. } = *shared;
+    let k = columns.len();
+    let mut xs_buf = Aligned::zeros(np * k);
+    let xs = xs_buf.as_mut_slice();
+    for (c, col) in columns.iter().enumerate() {
+        xs[c * np..c * np + n].copy_from_slice(&col.x0[..n]);
+    }
+    let mut pre_buf = Aligned::zeros(np * k);
+    let pre = pre_buf.as_mut_slice();
+    let mut ys = vec![R::ZERO; d * k];
+    let mut fed = vec![R::ZERO; d * k];
+    let mut us = vec![R::ZERO; u * k];
+    let mut ctl = vec![0.0; u];
+    let mut noise = vec![R::ZERO; n];
+    let mut rngs: Vec<Option<(ChaCha8Rng, f64)>> = columns
+        .iter()
+        .map(|c| match c.noise {
+            NoiseSource::Drawn { seed, sigma } => Some((crate::reservoir::rng(seed, 9_000), sigma)),
+            _ => None,
+        })
+        .collect();
+    // Slot i of the buffers holds column slot_of[i]; columns whose observer
+    // has stopped leave the first `live` slots, so the product skips them.
+    let mut slot_of: Vec<usize> = (0..k).collect();
+    let mut stopped = vec![false; k];
+    let mut live = k;
+    for s in 0..steps {
+        let mut i = 0;
+        while i < live {
+            if !stopped[i] {
+                i += 1;
+                continue;
+            }
+            live -= 1;
+            if i < live {
+                xs.copy_within(live * np..(live + 1) * np, i * np);
+                slot_of.swap(i, live);
+                stopped.swap(i, live);
+            }
+        }
+        if live == 0 {
+            break;
+        }
+        for i in 0..live {
+            let c = slot_of[i];
+            let col = &columns[c];
+            let y = &mut ys[i * d..(i + 1) * d];
+            col.readout.apply(simd, &xs[i * np..i * np + n], y);
+            stopped[i] = !observers[c].see(s, y);
+            let f = &mut fed[i * d..(i + 1) * d];
+            match col.holds.iter().find(|h| (h.from..h.from + h.len).contains(&s)) {
+                Some(h) => {
+                    for (a, b) in f.iter_mut().zip(&h.values) {
+                        *a = R::from_f64(*b);
+                    }
+                }
+                None => f.copy_from_slice(y),
+            }
+            let uc = &mut us[i * u..(i + 1) * u];
+            match col.controls {
+                ControlSource::Table(t) => {
+                    for (a, b) in uc.iter_mut().zip(&t[s * u..(s + 1) * u]) {
+                        *a = R::from_f64(*b);
+                    }
+                }
+                ControlSource::Fn(f) => {
+                    f.fill(s, &mut ctl);
+                    for (a, b) in uc.iter_mut().zip(&ctl) {
+                        *a = R::from_f64(*b);
+                    }
+                }
+            }
+        }
+        shared.product(simd, &xs[..live * np], &mut pre[..live * np], (0, np));
+        for i in 0..live {
+            let c = slot_of[i];
+            let col = &columns[c];
+            let z = match col.noise {
+                NoiseSource::Off => None,
+                NoiseSource::Table(t) => Some(&t[s * n..(s + 1) * n]),
+                NoiseSource::Drawn { .. } => {
+                    if let Some((g, sigma)) = rngs[c].as_mut() {
+                        for e in noise.iter_mut() {
+                            *e = R::from_f64(*sigma * g.sample::<f64, _>(StandardNormal));
+                        }
+                    }
+                    Some(&noise[..])
+                }
+            };
+            col.dynamics.finish(
+                &mut xs[i * np..i * np + n],
+                &mut pre[i * np..i * np + n],
+                &fed[i * d..(i + 1) * d],
+                &us[i * u..(i + 1) * u],
+                z,
+            );
+        }
+    }
+}
+
+/// A value alone on its cache lines, so that two cores writing neighbours do
+/// not take the line from each other.
+#[repr(align(128))]
+struct Line<T>(T);
+
+/// Spins on `flag` until it reaches `at`, yielding the core now and then so
+/// that two threads sharing one core still make progress.
+fn wait_for(flag: &std::sync::atomic::AtomicUsize, at: usize) {
+    let mut spins = 0u32;
+    while flag.load(std::sync::atomic::Ordering::Acquire) < at {
+        spins = spins.wrapping_add(1);
+        if spins.is_multiple_of(4096) {
+            std::thread::yield_now();
+        } else {
+            std::hint::spin_loop();
+        }
+    }
+}
+
+/// Noise-free free runs split over two threads, each computing half of the
+/// rows of `Ŵ·X` for every column (so each core keeps its half of `Ŵ` in its
+/// own cache) and finishing those neurons; after every step the two halves of
+/// the states are exchanged. The outputs are bit-identical to [`run_columns`]:
+/// every neuron's update is the same sequence of operations, only computed on
+/// another core. `observers` see the outputs on the calling thread; a column
+/// whose observer stopped is no longer shown, and the run ends when all have.
+pub(crate) fn run_split<R: SimdDot, O: Observer<R>>(
+    shared: &Shared<R>,
+    columns: &[Column<'_, R>],
+    observers: &mut [O],
+    steps: usize,
+) {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    assert_eq!(columns.len(), observers.len());
+    let Shared { n, np, .. } = *shared;
+    let k = columns.len();
+    if k == 0 {
+        return;
+    }
+    let lanes_mult = crate::kernel::PAD;
+    let mid = ((np / 2).div_ceil(lanes_mult) * lanes_mult).min(np);
+    let rows = [(0, mid), (mid, np)];
+    // Each half's published neurons (real ones only) of every column,
+    // double-buffered by step parity.
+    let real = |(a, b): (usize, usize)| (a.min(n), b.min(n));
+    let boxes: [[Line<Mutex<Vec<R>>>; 2]; 2] = core::array::from_fn(|t| {
+        let (a, b) = real(rows[t]);
+        core::array::from_fn(|_| Line(Mutex::new(vec![R::ZERO; (b - a) * k])))
+    });
+    let done = [Line(AtomicUsize::new(0)), Line(AtomicUsize::new(0))];
+    let stop = AtomicBool::new(false);
+    let half = |t: usize, observers: Option<&mut [O]>| {
+        struct Op<'a, 'b, R: SimdDot, O> {
+            shared: &'a Shared<R>,
+            columns: &'a [Column<'b, R>],
+            observers: Option<&'a mut [O]>,
+            steps: usize,
+            t: usize,
+            rows: [(usize, usize); 2],
+            boxes: &'a [[Line<Mutex<Vec<R>>>; 2]; 2],
+            done: &'a [Line<AtomicUsize>; 2],
+            stop: &'a AtomicBool,
+        }
+        impl<R: SimdDot, O: Observer<R>> WithSimd for Op<'_, '_, R, O> {
+            type Output = ();
+            #[inline(always)]
+            fn with_simd<S: Simd>(self, simd: S) {
+                let Op { shared, columns, mut observers, steps, t, rows, boxes, done, stop } = self;
+                let Shared { n, np, d, u, .. } = *shared;
+                let k = columns.len();
+                let other = 1 - t;
+                let (r0, r1) = rows[t];
+                let (a, b) = (r0.min(n), r1.min(n));
+                let (oa, ob) = (rows[other].0.min(n), rows[other].1.min(n));
+                let mut xs_buf = Aligned::zeros(np * k);
+                let xs = xs_buf.as_mut_slice();
+                for (c, col) in columns.iter().enumerate() {
+                    xs[c * np..c * np + n].copy_from_slice(&col.x0[..n]);
+                }
+                let mut pre_buf = Aligned::zeros(np * k);
+                let pre = pre_buf.as_mut_slice();
+                let mut ys = vec![R::ZERO; d * k];
+                let mut fed = vec![R::ZERO; d * k];
+                let mut us = vec![R::ZERO; u * k];
+                let mut ctl = vec![0.0; u];
+                let mut stopped = vec![false; k];
+                let mut live = k;
+                for s in 0..steps {
+                    for (c, col) in columns.iter().enumerate() {
+                        let y = &mut ys[c * d..(c + 1) * d];
+                        col.readout.apply(simd, &xs[c * np..c * np + n], y);
+                        if let Some(obs) = observers.as_deref_mut()
+                            && !stopped[c]
+                            && !obs[c].see(s, y)
+                        {
+                            stopped[c] = true;
+                            live -= 1;
+                        }
+                        let f = &mut fed[c * d..(c + 1) * d];
+                        match col.holds.iter().find(|h| (h.from..h.from + h.len).contains(&s)) {
+                            Some(h) => {
+                                for (f, v) in f.iter_mut().zip(&h.values) {
+                                    *f = R::from_f64(*v);
+                                }
+                            }
+                            None => f.copy_from_slice(y),
+                        }
+                        let uc = &mut us[c * u..(c + 1) * u];
+                        match col.controls {
+                            ControlSource::Table(tab) => {
+                                for (a, v) in uc.iter_mut().zip(&tab[s * u..(s + 1) * u]) {
+                                    *a = R::from_f64(*v);
+                                }
+                            }
+                            ControlSource::Fn(f) => {
+                                f.fill(s, &mut ctl);
+                                for (a, v) in uc.iter_mut().zip(&ctl) {
+                                    *a = R::from_f64(*v);
+                                }
+                            }
+                        }
+                    }
+                    if live == 0 {
+                        stop.store(true, Ordering::Relaxed);
+                        done[t].0.store(s + 1, Ordering::Release);
+                        return;
+                    }
+                    shared.product(simd, xs, pre, (r0, r1));
+                    for (c, col) in columns.iter().enumerate() {
+                        let at = c * np;
+                        col.dynamics.finish_rows(
+                            a,
+                            &mut xs[at + a..at + b],
+                            &mut pre[at + a..at + b],
+                            &fed[c * d..(c + 1) * d],
+                            &us[c * u..(c + 1) * u],
+                            None,
+                        );
+                    }
+                    let slot = (s + 1) % 2;
+                    if let Ok(mut m) = boxes[t][slot].0.lock() {
+                        for (c, dst) in m.chunks_exact_mut((b - a).max(1)).enumerate().take(k) {
+                            dst.copy_from_slice(&xs[c * np + a..c * np + b]);
+                        }
+                    }
+                    done[t].0.store(s + 1, Ordering::Release);
+                    wait_for(&done[other].0, s + 1);
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    if let Ok(m) = boxes[other][slot].0.lock() {
+                        for (c, src) in m.chunks_exact((ob - oa).max(1)).enumerate().take(k) {
+                            xs[c * np + oa..c * np + ob].copy_from_slice(src);
+                        }
+                    }
+                }
+            }
+        }
+        shared.arch.dispatch(Op { shared, columns, observers, steps, t, rows, boxes: &boxes, done: &done, stop: &stop })
+    };
+    std::thread::scope(|scope| {
+        scope.spawn(|| half(1, None));
+        half(0, Some(observers));
+    });
+}
+
+/// During steps `from .. from + len` of a free run, the fed-back outputs are
+/// held at `values` (normalised units): the paper's perturbation.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Hold {
     /// First held step.

@@ -4,10 +4,12 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
+use pulp::{Simd, WithSimd};
+
 use crate::config::Precision;
 use crate::engine::{Engine, ReadoutR};
 use crate::error::{Error, Result};
-use crate::kernel::SimdDot;
+use crate::kernel::{Aligned, SimdDot};
 use crate::model::TrainedCpg;
 use crate::reservoir::rng;
 
@@ -15,23 +17,23 @@ use crate::reservoir::rng;
 struct Gen<R: SimdDot> {
     engine: Engine<R>,
     readout: ReadoutR<R>,
-    x: Vec<R>,
+    x: Aligned<R>,
     y: Vec<R>,
     u: Vec<R>,
-    pre: Vec<R>,
+    pre: Aligned<R>,
     noise: Vec<R>,
 }
 
 impl<R: SimdDot> Gen<R> {
     fn new(m: &TrainedCpg) -> Gen<R> {
         let engine = Engine::<R>::new(&m.reservoir);
-        let (n, d, u) = (engine.n, engine.d, engine.u);
+        let (n, np, d, u) = (engine.shared.n, engine.shared.np, engine.shared.d, engine.shared.u);
         Gen {
             readout: ReadoutR::new(&m.readout),
-            x: m.start_state.iter().map(|&v| R::from_f64(v)).collect(),
+            x: engine.state(&m.start_state),
             y: vec![R::ZERO; d],
             u: vec![R::ZERO; u],
-            pre: vec![R::ZERO; n],
+            pre: Aligned::zeros(np),
             noise: vec![R::ZERO; n],
             engine,
         }
@@ -46,29 +48,45 @@ impl<R: SimdDot> Gen<R> {
         noise: Option<(&mut ChaCha8Rng, f64)>,
         out: &mut [f64],
     ) -> bool {
-        self.readout.apply_dispatch(self.engine.arch(), &self.x, &mut self.y);
-        for (o, y) in out.iter_mut().zip(&self.y) {
-            *o = y.to_f64();
+        struct Op<'a, 'b, R: SimdDot> {
+            g: &'a mut Gen<R>,
+            control: &'a [f64],
+            clamp: Option<&'a [f64]>,
+            noise: Option<(&'b mut ChaCha8Rng, f64)>,
+            out: &'a mut [f64],
         }
-        if let Some(c) = clamp {
-            for (y, v) in self.y.iter_mut().zip(c) {
-                *y = R::from_f64(*v);
-            }
-        }
-        for (a, b) in self.u.iter_mut().zip(control) {
-            *a = R::from_f64(*b);
-        }
-        let z = match noise {
-            Some((g, sigma)) => {
-                for e in self.noise.iter_mut() {
-                    *e = R::from_f64(sigma * g.sample::<f64, _>(StandardNormal));
+        impl<R: SimdDot> WithSimd for Op<'_, '_, R> {
+            type Output = bool;
+            #[inline(always)]
+            fn with_simd<S: Simd>(self, simd: S) -> bool {
+                let Op { g, control, clamp, noise, out } = self;
+                g.readout.apply(simd, g.x.as_slice(), &mut g.y);
+                for (o, y) in out.iter_mut().zip(&g.y) {
+                    *o = y.to_f64();
                 }
-                Some(self.noise.as_slice())
+                if let Some(c) = clamp {
+                    for (y, v) in g.y.iter_mut().zip(c) {
+                        *y = R::from_f64(*v);
+                    }
+                }
+                for (a, b) in g.u.iter_mut().zip(control) {
+                    *a = R::from_f64(*b);
+                }
+                let z = match noise {
+                    Some((r, sigma)) => {
+                        for e in g.noise.iter_mut() {
+                            *e = R::from_f64(sigma * r.sample::<f64, _>(StandardNormal));
+                        }
+                        Some(g.noise.as_slice())
+                    }
+                    None => None,
+                };
+                g.engine.update_simd(simd, g.x.as_mut_slice(), &g.y, &g.u, g.pre.as_mut_slice(), z);
+                out.iter().all(|v| v.is_finite()) && g.x.as_slice().iter().all(|v| v.finite())
             }
-            None => None,
-        };
-        self.engine.update(&mut self.x, &self.y, &self.u, &mut self.pre, z);
-        out.iter().all(|v| v.is_finite()) && self.x.iter().all(|v| v.finite())
+        }
+        let arch = self.engine.arch();
+        arch.dispatch(Op { g: self, control, clamp, noise, out })
     }
 }
 

@@ -1,10 +1,11 @@
 //! The inner loops: dot products with a fixed summation order.
 //!
 //! Every dot product accumulates in 16 lanes (element `i` goes to lane `i % 16`)
-//! and reduces the lanes with one fixed tree. The batched kernel computes
-//! several dot products against one shared row with exactly the same per-column
-//! arithmetic, so a column's result never depends on how many columns are
-//! computed together, on the chunking across threads, or on the machine.
+//! and reduces the lanes with one fixed tree. The matrix product computes each
+//! element as one chain of fused multiply-adds over the terms in order (fused
+//! multiply-adds round once, in hardware and in the standard library alike),
+//! so a column's result never depends on how many columns are computed
+//! together, on the rows or chunks given to each thread, or on the machine.
 
 use pulp::{Simd, WithSimd};
 
@@ -33,16 +34,27 @@ pub trait SimdDot: Real + pulp::bytemuck::Pod {
     fn dot_simd<S: Simd>(simd: S, a: &[Self], b: &[Self]) -> Self;
     /// Four dot products against one shared row.
     fn dot4_simd<S: Simd>(simd: S, row: &[Self], x: [&[Self]; 4]) -> [Self; 4];
-    /// `out[c·n + i] = Σ_j wt[j·n + i] · xs[c·n + j]` for every column `c` of
-    /// `xs`: the product of the column-major `n × n` matrix `wt` with each
-    /// column. Each element sums over `j = 0, 1, …, n−1` in order, starting
-    /// from 0, so its value does not depend on the instruction set, on the
-    /// number of columns, or on which block it falls in.
-    fn gemm_simd<S: Simd>(simd: S, wt: &[Self], n: usize, xs: &[Self], out: &mut [Self]);
+    /// The product of a packed matrix with several columns:
+    /// `out[c·np + i] = Σ_{j<n} W[i][j] · xs[c·np + j]` for the rows `i` in
+    /// `rows` (multiples of the vector width) of every column `c`. `wt` is
+    /// `W` packed by [`pack`] (height `np`, a multiple of [`PAD`], the rows
+    /// past the matrix's own being zero); `xs` and `out` hold columns of
+    /// height `np`. Each element is a chain of fused multiply-adds over
+    /// `j = 0, 1, …, n−1` in order, starting from +0, so its value does not
+    /// depend on the instruction set, on the number of columns, on the rows
+    /// computed with it, or on which block it falls in.
+    fn gemm_simd<S: Simd>(
+        simd: S,
+        wt: &[Self],
+        shape: (usize, usize),
+        xs: &[Self],
+        out: &mut [Self],
+        rows: (usize, usize),
+    );
 }
 
 macro_rules! simd_dot {
-    ($t:ty, $v:ident, $n_lanes:ident, $as_simd:ident, $splat:ident, $add:ident, $mul:ident) => {
+    ($t:ty, $v:ident, $n_lanes:ident, $as_simd:ident, $splat:ident, $add:ident, $mul:ident, $fma:ident) => {
         impl SimdDot for $t {
             #[inline(always)]
             fn dot_simd<S: Simd>(simd: S, a: &[$t], b: &[$t]) -> $t {
@@ -98,111 +110,191 @@ macro_rules! simd_dot {
             }
 
             #[inline(always)]
-            fn gemm_simd<S: Simd>(simd: S, wt: &[$t], n: usize, xs: &[$t], out: &mut [$t]) {
-                assert_eq!(wt.len(), n * n);
-                assert_eq!(xs.len(), out.len());
-                assert!(n > 0 && xs.len() % n == 0);
-                let n_cols = xs.len() / n;
+            fn gemm_simd<S: Simd>(
+                simd: S,
+                wt: &[$t],
+                (np, n): (usize, usize),
+                xs: &[$t],
+                out: &mut [$t],
+                (r0, r1): (usize, usize),
+            ) {
                 let lanes = S::$n_lanes;
-                let n_vec = n / lanes;
+                assert!(n <= np && np % PAD == 0 && PAD % lanes == 0, "padded height {np} for {n} terms");
+                assert!(r0 <= r1 && r1 <= np && r0 % lanes == 0 && r1 % lanes == 0, "rows {r0}..{r1} of {np}");
+                assert_eq!(wt.len(), np * n);
+                assert_eq!(xs.len(), out.len());
+                assert!(np > 0 && xs.len() % np == 0);
+                let k = xs.len() / np;
 
-                /// Columns `c..c+Q`, row vectors `v..v+B`, terms `j0..j1`: Q·B
-                /// accumulators in registers. The running sums start at 0 when
-                /// `j0 == 0` and otherwise continue from `out`, so tiling over `j`
-                /// leaves every element's sequence of additions unchanged.
+                /// Columns `c..c+Q`, the `B` row vectors from row `i` of the
+                /// panel `pw` (height `h`, first row `p0`), terms `j0..j1`:
+                /// Q·B accumulators in registers, each updated by one fused
+                /// multiply-add per term. The running sums start at +0 when
+                /// `j0 == 0` and otherwise continue from `out`, so tiling over
+                /// `j` leaves every element's sequence of operations unchanged.
                 #[inline(always)]
                 fn block<S: Simd, const Q: usize, const B: usize>(
                     simd: S,
-                    wt: &[$t],
-                    n: usize,
+                    (pw, h, p0): (&[$t], usize, usize),
+                    np: usize,
                     xs: &[$t],
                     out: &mut [$t],
-                    (c, v): (usize, usize),
+                    (c, i): (usize, usize),
                     (j0, j1): (usize, usize),
                 ) {
                     let lanes = S::$n_lanes;
                     let z = simd.$splat(0.0);
                     let mut acc = [[z; B]; Q];
+                    let row = p0 + i;
                     if j0 > 0 {
                         for q in 0..Q {
-                            let src = &out[(c + q) * n + v * lanes..(c + q) * n + (v + B) * lanes];
-                            let (sv, _) = S::$as_simd(src);
+                            let at = (c + q) * np + row;
+                            let (sv, _) = S::$as_simd(&out[at..at + B * lanes]);
                             acc[q].copy_from_slice(&sv[..B]);
                         }
                     }
-                    let x: [&[$t]; Q] = core::array::from_fn(|q| &xs[(c + q) * n..(c + q + 1) * n]);
-                    for j in j0..j1 {
-                        let base = j * n + v * lanes;
-                        let (col, _) = S::$as_simd(&wt[base..base + B * lanes]);
+                    // Every slice is cut to the tile's length up front, so the
+                    // loop's indices need no checks.
+                    let len = j1 - j0;
+                    let x: [&[$t]; Q] = core::array::from_fn(|q| {
+                        let at = (c + q) * np + j0;
+                        &xs[at..at + len]
+                    });
+                    for (jj, col) in (0..len).zip(pw[j0 * h..j1 * h].chunks_exact(h)) {
+                        let (col, _) = S::$as_simd(&col[i..i + B * lanes]);
                         let col: &[S::$v; B] = col.try_into().unwrap_or_else(|_| unreachable!());
                         for q in 0..Q {
-                            let xj = simd.$splat(x[q][j]);
+                            let xj = simd.$splat(x[q][jj]);
                             for b in 0..B {
-                                acc[q][b] = simd.$add(acc[q][b], simd.$mul(col[b], xj));
+                                acc[q][b] = simd.$fma(col[b], xj, acc[q][b]);
                             }
                         }
                     }
                     for q in 0..Q {
-                        let dst = &mut out[(c + q) * n + v * lanes..(c + q) * n + (v + B) * lanes];
-                        dst.copy_from_slice(pulp::bytemuck::cast_slice::<S::$v, $t>(&acc[q]));
+                        let at = (c + q) * np + row;
+                        out[at..at + B * lanes].copy_from_slice(pulp::bytemuck::cast_slice::<S::$v, $t>(&acc[q]));
                     }
                 }
 
-                // Tiles of W columns small enough to stay in cache while every
-                // row block passes over them (one tile when W itself fits).
-                let tile = if n * n * core::mem::size_of::<$t>() <= 512 * 1024 { n } else { 64 };
-                let mut j0 = 0;
-                while j0 < n {
-                    let j = (j0, (j0 + tile).min(n));
-                    let mut c = 0;
-                    while c + 4 <= n_cols {
-                        let mut v = 0;
-                        while v + 2 <= n_vec {
-                            block::<S, 4, 2>(simd, wt, n, xs, out, (c, v), j);
-                            v += 2;
-                        }
-                        while v < n_vec {
-                            block::<S, 4, 1>(simd, wt, n, xs, out, (c, v), j);
-                            v += 1;
-                        }
-                        c += 4;
+                if n == 0 {
+                    for c in 0..k {
+                        out[c * np + r0..c * np + r1].fill(0.0);
                     }
-                    while c < n_cols {
-                        let mut v = 0;
-                        while v + 8 <= n_vec {
-                            block::<S, 1, 8>(simd, wt, n, xs, out, (c, v), j);
-                            v += 8;
-                        }
-                        while v + 2 <= n_vec {
-                            block::<S, 1, 2>(simd, wt, n, xs, out, (c, v), j);
-                            v += 2;
-                        }
-                        while v < n_vec {
-                            block::<S, 1, 1>(simd, wt, n, xs, out, (c, v), j);
-                            v += 1;
-                        }
-                        c += 1;
-                    }
-                    j0 = j.1;
+                    return;
                 }
-                // Rows past the last full vector: the same sums, one element at a time.
-                for c in 0..n_cols {
-                    let x = &xs[c * n..(c + 1) * n];
-                    for i in n_vec * lanes..n {
-                        let mut s: $t = 0.0;
-                        for j in 0..n {
-                            s += wt[j * n + i] * x[j];
+                let wide = lanes * core::mem::size_of::<$t>() >= 64;
+                // Terms per tile: a panel's tile stays in the first-level cache
+                // while the columns pass over it (32 KB).
+                let jt = (32 * 1024 / (PANEL * core::mem::size_of::<$t>())).max(16);
+                let mut p0 = r0 / PANEL * PANEL;
+                while p0 < r1 {
+                    let h = PANEL.min(np - p0);
+                    let pw = &wt[p0 * n..(p0 + h) * n];
+                    let panel = (pw, h, p0);
+                    let (a, b) = (r0.max(p0) - p0, r1.min(p0 + h) - p0);
+                    if k == 2 || k == 3 {
+                        // Two or three columns: one pass over the panel for
+                        // all of them (a long run bound by streaming W costs
+                        // little more with a twin beside it).
+                        let mut i = a;
+                        while i < b {
+                            let bw = if wide && k == 2 && i + 8 * lanes <= b {
+                                8
+                            } else if i + 4 * lanes <= b {
+                                4
+                            } else if i + 2 * lanes <= b {
+                                2
+                            } else {
+                                1
+                            };
+                            match (k, bw) {
+                                (2, 8) => block::<S, 2, 8>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                (2, 4) => block::<S, 2, 4>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                (2, 2) => block::<S, 2, 2>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                (2, _) => block::<S, 2, 1>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                (_, 4) => block::<S, 3, 4>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                (_, 2) => block::<S, 3, 2>(simd, panel, np, xs, out, (0, i), (0, n)),
+                                _ => block::<S, 3, 1>(simd, panel, np, xs, out, (0, i), (0, n)),
+                            }
+                            i += bw * lanes;
                         }
-                        out[c * n + i] = s;
+                    } else if k < 4 {
+                        // One column: the panel streams through once, eight
+                        // independent accumulators at most.
+                        for c in 0..k {
+                            let mut i = a;
+                            while i + 8 * lanes <= b {
+                                block::<S, 1, 8>(simd, panel, np, xs, out, (c, i), (0, n));
+                                i += 8 * lanes;
+                            }
+                            while i + 4 * lanes <= b {
+                                block::<S, 1, 4>(simd, panel, np, xs, out, (c, i), (0, n));
+                                i += 4 * lanes;
+                            }
+                            while i < b {
+                                block::<S, 1, 1>(simd, panel, np, xs, out, (c, i), (0, n));
+                                i += lanes;
+                            }
+                        }
+                    } else {
+                        // Many columns: each tile of the panel is read from the
+                        // outer caches once per product. Four columns × four
+                        // row vectors of accumulators fit the 32 registers of
+                        // AVX-512; narrower instruction sets (16 registers) take two.
+                        let mut i = a;
+                        while i < b {
+                            let bw = if wide && i + 4 * lanes <= b {
+                                4
+                            } else if i + 2 * lanes <= b {
+                                2
+                            } else {
+                                1
+                            };
+                            let mut j0 = 0;
+                            while j0 < n {
+                                let j = (j0, (j0 + jt).min(n));
+                                let mut c = 0;
+                                if !wide {
+                                    // Sixteen registers: six columns × two row
+                                    // vectors keep twelve chains in flight.
+                                    while c + 6 <= k {
+                                        match bw {
+                                            2 => block::<S, 6, 2>(simd, panel, np, xs, out, (c, i), j),
+                                            _ => block::<S, 6, 1>(simd, panel, np, xs, out, (c, i), j),
+                                        }
+                                        c += 6;
+                                    }
+                                }
+                                while c + 4 <= k {
+                                    match bw {
+                                        4 => block::<S, 4, 4>(simd, panel, np, xs, out, (c, i), j),
+                                        2 => block::<S, 4, 2>(simd, panel, np, xs, out, (c, i), j),
+                                        _ => block::<S, 4, 1>(simd, panel, np, xs, out, (c, i), j),
+                                    }
+                                    c += 4;
+                                }
+                                while c < k {
+                                    match bw {
+                                        4 => block::<S, 1, 4>(simd, panel, np, xs, out, (c, i), j),
+                                        2 => block::<S, 1, 2>(simd, panel, np, xs, out, (c, i), j),
+                                        _ => block::<S, 1, 1>(simd, panel, np, xs, out, (c, i), j),
+                                    }
+                                    c += 1;
+                                }
+                                j0 = j.1;
+                            }
+                            i += bw * lanes;
+                        }
                     }
+                    p0 += h;
                 }
             }
         }
     };
 }
 
-simd_dot!(f32, f32s, F32_LANES, as_simd_f32s, splat_f32s, add_f32s, mul_f32s);
-simd_dot!(f64, f64s, F64_LANES, as_simd_f64s, splat_f64s, add_f64s, mul_f64s);
+simd_dot!(f32, f32s, F32_LANES, as_simd_f32s, splat_f32s, add_f32s, mul_f32s, mul_add_f32s);
+simd_dot!(f64, f64s, F64_LANES, as_simd_f64s, splat_f64s, add_f64s, mul_f64s, mul_add_f64s);
 
 /// `Σ a[i]·b[i]` with the crate's fixed summation order, in the best
 /// instruction set of this machine.
@@ -221,73 +313,195 @@ pub fn dot<R: SimdDot>(a: &[R], b: &[R]) -> R {
     pulp::Arch::new().dispatch(Op(a, b))
 }
 
-/// [`matmul_cols`] in the best instruction set of this machine.
-pub fn matmul<R: SimdDot>(w: &[R], n: usize, xs: &[R], out: &mut [R]) {
+/// Heights of the matrices and vectors of [`matmul`] are multiples of this:
+/// every vector width (1, 2, 4, 8 or 16 lanes) divides it.
+pub const PAD: usize = 16;
+
+/// `n` rounded up to a multiple of [`PAD`].
+pub fn padded(n: usize) -> usize {
+    n.div_ceil(PAD) * PAD
+}
+
+/// [`matmul_cols`] over every row, in the best instruction set of this machine.
+/// `wt` is a matrix packed by [`pack`]; `xs` and `out` are columns of
+/// height `padded(n)`.
+pub fn matmul<R: SimdDot>(wt: &[R], n: usize, xs: &[R], out: &mut [R]) {
     struct Op<'a, R>(&'a [R], usize, &'a [R], &'a mut [R]);
     impl<R: SimdDot> WithSimd for Op<'_, R> {
         type Output = ();
         #[inline(always)]
         fn with_simd<S: Simd>(self, simd: S) {
-            matmul_cols(simd, self.0, self.1, self.2, self.3)
+            let np = padded(self.1);
+            matmul_cols(simd, self.0, (np, self.1), self.2, self.3, (0, np))
         }
     }
-    pulp::Arch::new().dispatch(Op(w, n, xs, out))
+    pulp::Arch::new().dispatch(Op(wt, n, xs, out))
 }
 
-/// `out[c][i] = Σ_j W[i][j] · xs[c][j]` for every column `c`, with `wt` the
-/// column-major (transposed) `n × n` matrix; see [`SimdDot::gemm_simd`].
+/// `out[c][i] = Σ_j W[i][j] · xs[c][j]` for every column `c` and the rows
+/// `i` in `rows`, with `wt` the matrix packed by [`pack`]; see
+/// [`SimdDot::gemm_simd`].
 #[inline(always)]
-pub fn matmul_cols<R: SimdDot, S: Simd>(simd: S, wt: &[R], n: usize, xs: &[R], out: &mut [R]) {
-    R::gemm_simd(simd, wt, n, xs, out)
+pub fn matmul_cols<R: SimdDot, S: Simd>(
+    simd: S,
+    wt: &[R],
+    shape: (usize, usize),
+    xs: &[R],
+    out: &mut [R],
+    rows: (usize, usize),
+) {
+    R::gemm_simd(simd, wt, shape, xs, out, rows)
+}
+
+/// A buffer whose first element sits on a 64-byte boundary, so that vector
+/// loads of 64 bytes never straddle two cache lines (the allocator only
+/// promises 16).
+#[derive(Debug, Clone)]
+pub struct Aligned<R> {
+    data: Vec<R>,
+    off: usize,
+    len: usize,
+}
+
+impl<R: Copy + Default> Aligned<R> {
+    /// `len` copies of `R::default()`.
+    pub fn zeros(len: usize) -> Aligned<R> {
+        let size = core::mem::size_of::<R>().max(1);
+        let extra = 64 / size;
+        let data = vec![R::default(); len + extra];
+        let addr = data.as_ptr() as usize;
+        let off = ((64 - addr % 64) % 64) / size;
+        Aligned { data, off: off.min(extra), len }
+    }
+
+    /// The elements.
+    pub fn as_slice(&self) -> &[R] {
+        &self.data[self.off..self.off + self.len]
+    }
+
+    /// The elements, mutably.
+    pub fn as_mut_slice(&mut self) -> &mut [R] {
+        &mut self.data[self.off..self.off + self.len]
+    }
+}
+
+/// Rows per panel of a packed matrix.
+pub const PANEL: usize = 128;
+
+/// Packs the row-major `n × n` matrix `w` for [`matmul`]: its rows, padded
+/// with zeros to `padded(n)`, in panels of [`PANEL`] rows (the last one
+/// shorter); within a panel, column `j`'s entries are contiguous. A product
+/// reads each panel front to back.
+pub fn pack<R: Copy + Default>(w: &[f64], n: usize, conv: impl Fn(f64) -> R) -> Aligned<R> {
+    let np = padded(n);
+    let mut packed = Aligned::zeros(np * n);
+    let t = packed.as_mut_slice();
+    let mut p0 = 0;
+    while p0 < np {
+        let h = PANEL.min(np - p0);
+        for j in 0..n {
+            for r in 0..h {
+                let i = p0 + r;
+                if i < n {
+                    t[p0 * n + j * h + r] = conv(w[i * n + j]);
+                }
+            }
+        }
+        p0 += h;
+    }
+    packed
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The definition: a chain of fused multiply-adds over the terms in order.
+    fn reference<R: Real>(w: &[f64], n: usize, x: &[R], conv: impl Fn(f64) -> R, fma: impl Fn(R, R, R) -> R) -> Vec<R> {
+        (0..n)
+            .map(|i| {
+                let mut s = R::ZERO;
+                for j in 0..n {
+                    s = fma(conv(w[i * n + j]), x[j], s);
+                }
+                s
+            })
+            .collect()
+    }
+
+    fn columns(n: usize, k: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let w: Vec<f64> = (0..n * n).map(|k| ((k * 7919 % 1000) as f64 - 500.0) / 377.0).collect();
+        let xs =
+            (0..k).map(|c| (0..n).map(|j| (((c * n + j) * 104_729 % 997) as f64 - 498.0) / 211.0).collect()).collect();
+        (w, xs)
+    }
+
     #[test]
-    fn batched_columns_equal_single_dot_products_bit_for_bit() {
-        for n in [1, 7, 8, 13, 64, 301, 390] {
-            let w: Vec<f32> = (0..n * n).map(|k| ((k * 7919 % 1000) as f32 - 500.0) / 377.0).collect();
-            for n_cols in [1, 3, 4, 5, 9] {
-                let xs: Vec<f32> = (0..n * n_cols).map(|k| ((k * 104_729 % 997) as f32 - 498.0) / 211.0).collect();
-                let mut out = vec![0.0; n * n_cols];
-                matmul(&w, n, &xs, &mut out);
-                let mut scalar = vec![0.0; n * n_cols];
-                matmul_cols(pulp::Scalar::new(), &w, n, &xs, &mut scalar);
-                for c in 0..n_cols {
-                    let mut one = vec![0.0; n];
-                    matmul(&w, n, &xs[c * n..(c + 1) * n], &mut one);
-                    for i in 0..n {
-                        // Sequential sum over j: the definition.
-                        let mut s = 0.0f32;
-                        for j in 0..n {
-                            s += w[j * n + i] * xs[c * n + j];
-                        }
-                        assert_eq!(out[c * n + i].to_bits(), s.to_bits(), "n {n}, col {c}, row {i}");
-                        assert_eq!(one[i].to_bits(), s.to_bits(), "single column, n {n}");
-                        assert_eq!(scalar[c * n + i].to_bits(), s.to_bits(), "scalar path, n {n}");
+    fn every_column_count_and_row_split_gives_the_definition_bit_for_bit() {
+        for n in [1, 7, 8, 13, 16, 64, 150, 301] {
+            let np = padded(n);
+            let (w, xs64) = columns(n, 9);
+            let wt = pack(&w, n, |v| v as f32);
+            let wt = wt.as_slice();
+            for k in [1, 2, 3, 4, 5, 8, 9] {
+                let mut xs = vec![0.0f32; np * k];
+                for c in 0..k {
+                    for j in 0..n {
+                        xs[c * np + j] = xs64[c][j] as f32;
                     }
+                }
+                let mut out = vec![f32::NAN; np * k];
+                matmul(wt, n, &xs, &mut out);
+                let mut scalar = vec![f32::NAN; np * k];
+                matmul_cols(pulp::Scalar::new(), wt, (np, n), &xs, &mut scalar, (0, np));
+                // Two halves of the rows, as two threads compute them.
+                let mut halves = vec![f32::NAN; np * k];
+                let mid = (np / 2).div_ceil(PAD) * PAD;
+                for rows in [(0, mid), (mid, np)] {
+                    struct Op<'a>(&'a [f32], (usize, usize), &'a [f32], &'a mut [f32], (usize, usize));
+                    impl WithSimd for Op<'_> {
+                        type Output = ();
+                        fn with_simd<S: Simd>(self, simd: S) {
+                            matmul_cols(simd, self.0, self.1, self.2, self.3, self.4)
+                        }
+                    }
+                    pulp::Arch::new().dispatch(Op(wt, (np, n), &xs, &mut halves, rows));
+                }
+                for c in 0..k {
+                    let def = reference(&w, n, &xs[c * np..c * np + n], |v| v as f32, f32::mul_add);
+                    let mut one = vec![0.0; np];
+                    matmul(wt, n, &xs[c * np..(c + 1) * np], &mut one);
+                    for i in 0..n {
+                        let want = def[i].to_bits();
+                        assert_eq!(out[c * np + i].to_bits(), want, "n {n}, {k} columns, col {c}, row {i}");
+                        assert_eq!(one[i].to_bits(), want, "single column, n {n}");
+                        assert_eq!(scalar[c * np + i].to_bits(), want, "scalar path, n {n}");
+                        assert_eq!(halves[c * np + i].to_bits(), want, "row halves, n {n}");
+                    }
+                    assert!(out[c * np + n..(c + 1) * np].iter().all(|v| *v == 0.0), "padding rows are zero");
                 }
             }
         }
     }
 
     #[test]
-    fn tiled_f64_product_is_the_sequential_sum() {
-        // 260² f64 = 540 KB: above the tiling threshold.
-        let n = 260;
-        let w: Vec<f64> = (0..n * n).map(|k| ((k * 7919 % 1000) as f64 - 500.0) / 377.0).collect();
-        let xs: Vec<f64> = (0..n * 5).map(|k| ((k * 104_729 % 997) as f64 - 498.0) / 211.0).collect();
-        let mut out = vec![0.0; n * 5];
-        matmul(&w, n, &xs, &mut out);
-        for c in 0..5 {
+    fn f64_product_over_several_term_tiles_is_the_definition() {
+        // 300 terms: three tiles of the many-column path.
+        let n = 300;
+        let np = padded(n);
+        let (w, xs64) = columns(n, 6);
+        let wt = pack(&w, n, |v| v);
+        let wt = wt.as_slice();
+        let mut xs = vec![0.0f64; np * 6];
+        for c in 0..6 {
+            xs[c * np..c * np + n].copy_from_slice(&xs64[c]);
+        }
+        let mut out = vec![0.0; np * 6];
+        matmul(wt, n, &xs, &mut out);
+        for c in 0..6 {
+            let def = reference(&w, n, &xs64[c], |v| v, f64::mul_add);
             for i in 0..n {
-                let mut s = 0.0f64;
-                for j in 0..n {
-                    s += w[j * n + i] * xs[c * n + j];
-                }
-                assert_eq!(out[c * n + i].to_bits(), s.to_bits(), "col {c}, row {i}");
+                assert_eq!(out[c * np + i].to_bits(), def[i].to_bits(), "col {c}, row {i}");
             }
         }
     }

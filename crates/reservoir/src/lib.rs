@@ -20,11 +20,15 @@
 //!   cores, best penalty.
 //! - [`TrainedCpg`]: the model with provenance, saved in a versioned, checksummed file.
 //! - [`Generator`]: allocation-free `step(control) → output` for a control loop.
+//! - [`batch::free_runs`]: many free runs per pass over the weights (runs
+//!   that share `Ŵ` advance with one matrix-matrix product per step).
 //!
 //! Determinism: the same configuration, seed and data give bit-identical
 //! weights, models and outputs whatever the number of threads. Inner loops
-//! sum in a fixed order and `tanh` is computed by this crate, not by libm.
+//! sum in a fixed order (the recurrent product by chains of fused
+//! multiply-adds) and `tanh` is computed by this crate, not by libm.
 
+pub mod batch;
 mod config;
 mod engine;
 mod error;

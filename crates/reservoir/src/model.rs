@@ -5,10 +5,14 @@
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `CPGMODEL` |
-//! | 8..12 | format version (u32), currently 2 |
+//! | 8..12 | format version (u32), currently 3 (version 2 is read too) |
 //! | 12..20 | payload length in bytes (u64) |
 //! | 20..28 | FNV-1a 64 checksum of the payload |
 //! | 28.. | payload: bincode 2 (standard config) of the model with its configuration, provenance and weights |
+//!
+//! Version 3 stores W at spectral radius 1 (the dynamics scale `W·x` by the
+//! radius); version 2 stored W already scaled, and reading one divides it by
+//! the radius (exact at radius 1, the last bit may differ otherwise).
 //!
 //! The header is checked before anything is decoded, so random bytes, a
 //! truncated copy or a flipped bit give a clear error, never a panic or a
@@ -28,7 +32,9 @@ use crate::train::{Scoring, TrainSettings, Training, ValidationPoint};
 /// Magic bytes that open every model file.
 pub const MAGIC: &[u8; 8] = b"CPGMODEL";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
+/// The oldest format version this build reads.
+const OLDEST_VERSION: u32 = 2;
 /// The largest sample rate a model may have, Hz.
 pub const MAX_SAMPLE_RATE_HZ: f64 = 100_000.0;
 /// The smallest sample rate a model may have, Hz.
@@ -40,7 +46,7 @@ const HEADER: usize = 28;
 /// Decodes a payload with a bound on what its length prefixes may claim: a
 /// few times the payload's own size (in steps), so that a corrupt length
 /// (a string of 2^56 bytes in a 260-byte file) is an error, not an allocation.
-fn decode_payload(payload: &[u8]) -> std::result::Result<(FileV2, usize), bincode::error::DecodeError> {
+fn decode_payload(payload: &[u8]) -> std::result::Result<(Payload, usize), bincode::error::DecodeError> {
     use bincode::config::standard;
     use bincode::serde::decode_from_slice;
     const MIB: usize = 1 << 20;
@@ -160,7 +166,7 @@ pub struct TrainedCpg {
 
 /// The serialisable form of a model (the payload of a file).
 #[derive(Serialize, Deserialize)]
-struct FileV2 {
+struct Payload {
     config: ReservoirConfig,
     seed: u64,
     w: Vec<f64>,
@@ -307,10 +313,10 @@ impl TrainedCpg {
 
     /// Serialises the model into the file format.
     pub fn to_bytes(&self) -> Result<Vec<u8>> {
-        let file = FileV2 {
+        let file = Payload {
             config: self.reservoir.config().clone(),
             seed: self.reservoir.seed(),
-            w: self.reservoir.w().to_vec(),
+            w: self.reservoir.w_unit().to_vec(),
             w_feedback: self.reservoir.w_feedback().to_vec(),
             w_input: self.reservoir.w_input().to_vec(),
             bias: self.reservoir.bias().to_vec(),
@@ -356,9 +362,9 @@ impl TrainedCpg {
             w
         };
         let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-        if version != FORMAT_VERSION {
+        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
             return Err(bad(format!(
-                "format version {version}; this build of cpg reads version {FORMAT_VERSION} (retrain or use a matching cpg)"
+                "format version {version}; this build of cpg reads versions {OLDEST_VERSION} to {FORMAT_VERSION} (retrain or use a matching cpg)"
             )));
         }
         let len = u64::from_le_bytes(word(12, 20));
@@ -377,8 +383,16 @@ impl TrainedCpg {
         if used != payload.len() {
             return Err(bad(format!("corrupt payload: {} trailing bytes", payload.len() - used)));
         }
+        let mut w = f.w;
+        if version == 2 && f.config.spectral_radius != 1.0 {
+            let rho = f.config.spectral_radius;
+            if !(rho.is_finite() && rho > 0.0) {
+                return Err(bad(format!("inconsistent model: spectral radius {rho}")));
+            }
+            w.iter_mut().for_each(|v| *v /= rho);
+        }
         let reservoir =
-            Reservoir::from_parts(f.config, f.seed, f.w, f.w_feedback, f.w_input, f.bias, f.raw_spectral_radius)
+            Reservoir::from_parts(f.config, f.seed, w, f.w_feedback, f.w_input, f.bias, f.raw_spectral_radius)
                 .map_err(|e| bad(format!("inconsistent model: {e}")))?;
         let m = TrainedCpg {
             reservoir,

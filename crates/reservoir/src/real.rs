@@ -58,14 +58,18 @@ impl Real for f32 {
         // Not `min`: a NaN must stay NaN so that divergence is detected.
         let a = if a > 10.0 { 10.0 } else { a };
         let y = 2.0 * a;
-        // k = round(y / ln 2) with the 1.5·2^23 trick (round to nearest even, vectorisable).
-        let k = (y * std::f32::consts::LOG2_E + 12_582_912.0) - 12_582_912.0;
+        // k = round(y / ln 2) with the 1.5·2^23 trick (round to nearest even,
+        // vectorisable): the low bits of `t` then hold k itself.
+        let t = y * std::f32::consts::LOG2_E + 12_582_912.0;
+        let k = t - 12_582_912.0;
         let r = (y - k * 0.693_359_4) + k * 2.121_944_4e-4;
         let p = 1.0
             + r * (1.0
                 + r * (0.5
                     + r * (1.0 / 6.0 + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0)))))));
-        let scale = f32::from_bits(((k as i32 + 127) as u32) << 23);
+        // 2^k from the bits of t (0x4B40_0000 + k for 0 <= k < 2^22): integer
+        // operations that vectorise, where a float-to-integer cast does not.
+        let scale = f32::from_bits(t.to_bits().wrapping_sub(0x4B40_0000 - 127) << 23);
         let e = p * scale;
         (1.0 - 2.0 / (e + 1.0)).copysign(self)
     }
@@ -92,7 +96,8 @@ impl Real for f64 {
         let a = self.abs();
         let a = if a > 19.1 { 19.1 } else { a };
         let y = 2.0 * a;
-        let k = (y * std::f64::consts::LOG2_E + 6_755_399_441_055_744.0) - 6_755_399_441_055_744.0;
+        let t = y * std::f64::consts::LOG2_E + 6_755_399_441_055_744.0;
+        let k = t - 6_755_399_441_055_744.0;
         let r = (y - k * 6.931_471_803_691_238e-1) - k * 1.908_214_929_270_587_7e-10;
         // Taylor coefficients 1/n! for n = 0..=13, evaluated by Horner's rule.
         const C: [f64; 14] = [
@@ -115,7 +120,7 @@ impl Real for f64 {
         for c in C[..13].iter().rev() {
             p = p * r + c;
         }
-        let scale = f64::from_bits(((k as i64 + 1023) as u64) << 52);
+        let scale = f64::from_bits(t.to_bits().wrapping_sub(0x4338_0000_0000_0000 - 1023) << 52);
         let e = p * scale;
         (1.0 - 2.0 / (e + 1.0)).copysign(self)
     }
@@ -145,5 +150,17 @@ mod tests {
         assert_eq!(f32::tanh_det(1e30), 1.0);
         assert!(f64::tanh_det(f64::NAN).is_nan());
         assert!(f32::tanh_det(f32::NAN).is_nan());
+        // 2^k from the bits of the rounding constant equals 2^k from a cast.
+        for k in 0..=55i64 {
+            let t = k as f64 + 6_755_399_441_055_744.0;
+            assert_eq!(
+                f64::from_bits(t.to_bits().wrapping_sub(0x4338_0000_0000_0000 - 1023) << 52),
+                2f64.powi(k as i32)
+            );
+            if k <= 29 {
+                let t = k as f32 + 12_582_912.0;
+                assert_eq!(f32::from_bits(t.to_bits().wrapping_sub(0x4B40_0000 - 127) << 23), 2f32.powi(k as i32));
+            }
+        }
     }
 }

@@ -23,7 +23,11 @@ pub(crate) fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
 
 /// A reservoir: the configuration and its fixed weights, all `f64`, row-major.
 ///
-/// - `w`: `N × N` recurrent weights, N(0, 1) where connected, rescaled to the spectral radius.
+/// - `w_unit`: `N × N` recurrent weights, N(0, 1) where connected, rescaled to
+///   spectral radius 1. The dynamics multiply `w_unit · x` by the configured
+///   spectral radius ρ, so reservoirs that differ only in ρ share `w_unit`
+///   (and batched runs can advance them with one product); [`Reservoir::w`]
+///   is the product `ρ · w_unit`.
 /// - `w_feedback`: `N × D` output-feedback weights.
 /// - `w_input`: `N × U` control-input weights.
 /// - `bias`: `N` biases.
@@ -31,7 +35,7 @@ pub(crate) fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
 pub struct Reservoir {
     config: ReservoirConfig,
     seed: u64,
-    w: Vec<f64>,
+    w_unit: Vec<f64>,
     w_feedback: Vec<f64>,
     w_input: Vec<f64>,
     bias: Vec<f64>,
@@ -49,9 +53,9 @@ fn coupling(rng: &mut ChaCha8Rng, n: usize, c: &Coupling) -> Vec<f64> {
 }
 
 impl Reservoir {
-    /// Draws the weights of `config` from `seed` and rescales W to the
-    /// configured spectral radius, computed from the eigenvalues of the
-    /// (non-symmetric) matrix.
+    /// Draws the weights of `config` from `seed` and rescales W to spectral
+    /// radius 1, computed from the eigenvalues of the (non-symmetric) matrix;
+    /// the dynamics scale `W·x` by the configured radius.
     pub fn new(config: &CheckedConfig, seed: u64) -> Result<Reservoir> {
         let n = config.n_neurons;
         let mut r = rng(seed, STREAM_W);
@@ -68,7 +72,7 @@ impl Reservoir {
         if raw <= 0.0 {
             return Err(Error::ZeroRadius);
         }
-        let factor = config.spectral_radius / raw;
+        let factor = 1.0 / raw;
         w.iter_mut().for_each(|v| *v *= factor);
 
         // Feedback: N × D, drawn output by output.
@@ -90,14 +94,23 @@ impl Reservoir {
         let mut r = rng(seed, STREAM_BIAS);
         let [lo, hi] = config.bias_range;
         let bias = (0..n).map(|_| lo + (hi - lo) * r.random::<f64>()).collect();
-        Ok(Reservoir { config: config.get().clone(), seed, w, w_feedback, w_input, bias, raw_spectral_radius: raw })
+        Ok(Reservoir {
+            config: config.get().clone(),
+            seed,
+            w_unit: w,
+            w_feedback,
+            w_input,
+            bias,
+            raw_spectral_radius: raw,
+        })
     }
 
-    /// Rebuilds a reservoir from stored weights (a model file), checking shapes and values.
+    /// Rebuilds a reservoir from stored weights (a model file), checking
+    /// shapes and values; `w_unit` is W at spectral radius 1.
     pub fn from_parts(
         config: ReservoirConfig,
         seed: u64,
-        w: Vec<f64>,
+        w_unit: Vec<f64>,
         w_feedback: Vec<f64>,
         w_input: Vec<f64>,
         bias: Vec<f64>,
@@ -105,9 +118,12 @@ impl Reservoir {
     ) -> Result<Reservoir> {
         let config = config.check()?;
         let (n, d, u) = (config.n_neurons, config.n_outputs, config.inputs.len());
-        for (name, v, len) in
-            [("w", &w, n * n), ("w_feedback", &w_feedback, n * d), ("w_input", &w_input, n * u), ("bias", &bias, n)]
-        {
+        for (name, v, len) in [
+            ("w", &w_unit, n * n),
+            ("w_feedback", &w_feedback, n * d),
+            ("w_input", &w_input, n * u),
+            ("bias", &bias, n),
+        ] {
             if v.len() != len {
                 return Err(Error::Shape(format!("{name} has {} values, the config needs {len}", v.len())));
             }
@@ -115,7 +131,7 @@ impl Reservoir {
                 return Err(Error::Shape(format!("{name}[{k}] is not finite")));
             }
         }
-        Ok(Reservoir { config: config.get().clone(), seed, w, w_feedback, w_input, bias, raw_spectral_radius })
+        Ok(Reservoir { config: config.get().clone(), seed, w_unit, w_feedback, w_input, bias, raw_spectral_radius })
     }
 
     /// The configuration.
@@ -143,9 +159,27 @@ impl Reservoir {
         self.config.inputs.len()
     }
 
-    /// Recurrent weights, `N × N` row-major.
-    pub fn w(&self) -> &[f64] {
-        &self.w
+    /// Recurrent weights at spectral radius 1, `N × N` row-major: what the
+    /// dynamics multiply the state by before scaling with the radius.
+    pub fn w_unit(&self) -> &[f64] {
+        &self.w_unit
+    }
+
+    /// The effective recurrent weights `ρ · w_unit`, `N × N` row-major.
+    pub fn w(&self) -> Vec<f64> {
+        let rho = self.config.spectral_radius;
+        self.w_unit.iter().map(|v| v * rho).collect()
+    }
+
+    /// Whether `other` has the same `w_unit` (same size, connectivity and
+    /// seed), so that both can advance in one batched product.
+    pub fn shares_w_with(&self, other: &Reservoir) -> bool {
+        self.seed == other.seed
+            && self.config.n_neurons == other.config.n_neurons
+            && self.config.connectivity == other.config.connectivity
+            && self.config.precision == other.config.precision
+            && self.raw_spectral_radius == other.raw_spectral_radius
+            && self.w_unit == other.w_unit
     }
 
     /// Feedback weights, `N × D` row-major.

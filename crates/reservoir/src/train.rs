@@ -8,7 +8,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Precision;
-use crate::engine::{Batch, Engine, Hold, ReadoutR};
+use crate::engine::{Column, ControlSource, Engine, Hold, NoiseSource, ReadoutR, run_columns};
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
 use crate::orbit::{OrbitStay, orbit_nmse};
@@ -217,17 +217,15 @@ pub fn teacher_forced_states(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) 
 
 fn states_in<R: SimdDot>(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) -> Result<Vec<f64>> {
     let engine = Engine::<R>::new(reservoir);
-    let t = seq.check("sequence", engine.d, engine.u)?;
-    if x0.len() != engine.n {
-        return Err(Error::Shape(format!(
-            "start state has {} values, the reservoir has {} neurons",
-            x0.len(),
-            engine.n
-        )));
+    let (n, d, u) = (engine.shared.n, engine.shared.d, engine.shared.u);
+    let t = seq.check("sequence", d, u)?;
+    if x0.len() != n {
+        return Err(Error::Shape(format!("start state has {} values, the reservoir has {n} neurons", x0.len())));
     }
-    let mut x: Vec<R> = x0.iter().map(|&v| R::from_f64(v)).collect();
-    let mut out = Vec::with_capacity(t * engine.n);
-    engine.teacher_force(&mut x, &seq.outputs, &seq.controls, |_, s| out.extend(s.iter().map(|v| v.to_f64())));
+    let mut x = engine.state(x0);
+    let x = x.as_mut_slice();
+    let mut out = Vec::with_capacity(t * n);
+    engine.teacher_force(x, &seq.outputs, &seq.controls, |_, s| out.extend(s.iter().map(|v| v.to_f64())));
     Ok(out)
 }
 
@@ -268,7 +266,7 @@ fn harvest_in<R: SimdDot>(
     washout: usize,
     noise: Option<(f64, u64)>,
 ) -> Result<Harvest> {
-    let (n, d, u) = (engine.n, engine.d, engine.u);
+    let (n, d, u) = (engine.shared.n, engine.shared.d, engine.shared.u);
     let t = seq.check("training sequence", d, u)?;
     if washout + 2 > t {
         return Err(Error::Settings(format!(
@@ -277,7 +275,7 @@ fn harvest_in<R: SimdDot>(
     }
     let rows = t - 1 - washout;
     let mut states = Mat::<f64>::zeros(rows, n);
-    let mut x = vec![R::ZERO; n];
+    let mut x = vec![R::ZERO; engine.shared.np];
     let noisy;
     let fed: &[f64] = match noise {
         Some((sigma, seed)) if sigma > 0.0 => {
@@ -346,7 +344,7 @@ fn validate_in<R: SimdDot>(
     data: &TrainingData,
     settings: &TrainSettings,
 ) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
-    let (n, d, u) = (engine.n, engine.d, engine.u);
+    let (n, np, d, u) = (engine.shared.n, engine.shared.np, engine.shared.d, engine.shared.u);
     let (warmup, validation) = (&data.warmup, &data.validation);
     warmup.check("warm-up sequence", d, u)?;
     let steps = validation.check("validation sequence", d, u)?;
@@ -366,7 +364,7 @@ fn validate_in<R: SimdDot>(
     settings.check_noise()?;
     check_scoring(&data.scoring, steps, d)?;
     let readouts_r: Vec<ReadoutR<R>> = candidates.iter().map(|c| ReadoutR::new(&c.readout)).collect();
-    let mut x0 = vec![R::ZERO; n];
+    let mut x0 = vec![R::ZERO; np];
     engine.teacher_force(&mut x0, &warmup.outputs, &warmup.controls, |_, _| {});
 
     // Common random numbers: draw r is the same sequence for every candidate.
@@ -389,26 +387,39 @@ fn validate_in<R: SimdDot>(
     let chunk = n_cols.div_ceil(rayon::current_num_threads()).div_ceil(4) * 4;
     let holds = &data.scoring.holds;
     let column_score: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
-        let rs: Vec<&ReadoutR<R>> = cols.clone().map(|c| &readouts_r[c / draws]).collect();
-        let zs: Vec<Option<&[R]>> = cols.clone().map(|c| (sigma > 0.0).then(|| noises[c % draws].as_slice())).collect();
-        let k = rs.len();
-        let batch = Batch { steps, x0: &x0, readouts: &rs, noises: &zs, controls: &validation.controls, holds };
+        let columns: Vec<Column<'_, R>> = cols
+            .clone()
+            .map(|c| Column {
+                dynamics: &engine.dynamics,
+                readout: &readouts_r[c / draws],
+                x0: &x0[..n],
+                noise: if sigma > 0.0 { NoiseSource::Table(&noises[c % draws]) } else { NoiseSource::Off },
+                controls: ControlSource::Table(&validation.controls),
+                holds,
+            })
+            .collect();
+        let k = columns.len();
         match &data.scoring.score {
             Score::Nmse => {
                 let mut sse = vec![0.0; k * d];
                 let target = &validation.outputs;
-                let mut sink = |s: usize, c: usize, y: &[R]| {
-                    let e = &mut sse[c * d..(c + 1) * d];
-                    for ((e, yk), t) in e.iter_mut().zip(y).zip(&target[s * d..(s + 1) * d]) {
-                        let diff = yk.to_f64() - t;
-                        *e += diff * diff;
-                        if !e.is_finite() {
-                            *e = f64::INFINITY;
+                let mut sinks: Vec<_> = sse
+                    .chunks_exact_mut(d)
+                    .map(|e| {
+                        move |s: usize, y: &[R]| {
+                            for ((e, yk), t) in e.iter_mut().zip(y).zip(&target[s * d..(s + 1) * d]) {
+                                let diff = yk.to_f64() - t;
+                                *e += diff * diff;
+                                if !e.is_finite() {
+                                    *e = f64::INFINITY;
+                                }
+                            }
+                            true
                         }
-                    }
-                    true
-                };
-                engine.free_run_batch(&batch, &mut sink);
+                    })
+                    .collect();
+                run_columns(&engine.shared, &columns, &mut sinks, steps);
+                drop(sinks);
                 sse.chunks_exact(d)
                     .map(|e| e.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
                     .collect()
@@ -419,24 +430,32 @@ fn validate_in<R: SimdDot>(
                 let per_col: usize = windows.iter().map(|(a, b)| b - a).sum::<usize>() * d;
                 let mut kept = vec![f64::NAN; k * per_col];
                 let mut finite = vec![true; k];
-                let mut sink = |s: usize, c: usize, y: &[R]| {
-                    if y.iter().any(|v| !v.finite()) {
-                        finite[c] = false;
-                        return false;
-                    }
-                    let mut off = 0;
-                    for &(a, b) in &windows {
-                        if (a..b).contains(&s) {
-                            let dst = c * per_col + off + (s - a) * d;
-                            for (o, v) in kept[dst..dst + d].iter_mut().zip(y) {
-                                *o = v.to_f64();
+                let windows = &windows;
+                let mut sinks: Vec<_> = kept
+                    .chunks_exact_mut(per_col.max(1))
+                    .zip(finite.iter_mut())
+                    .map(|(kept, finite)| {
+                        move |s: usize, y: &[R]| {
+                            if y.iter().any(|v| !v.finite()) {
+                                *finite = false;
+                                return false;
                             }
+                            let mut off = 0;
+                            for &(a, b) in windows {
+                                if (a..b).contains(&s) {
+                                    let dst = off + (s - a) * d;
+                                    for (o, v) in kept[dst..dst + d].iter_mut().zip(y) {
+                                        *o = v.to_f64();
+                                    }
+                                }
+                                off += (b - a) * d;
+                            }
+                            true
                         }
-                        off += (b - a) * d;
-                    }
-                    true
-                };
-                engine.free_run_batch(&batch, &mut sink);
+                    })
+                    .collect();
+                run_columns(&engine.shared, &columns, &mut sinks, steps);
+                drop(sinks);
                 (0..k)
                     .map(|c| {
                         if !finite[c] {
@@ -444,7 +463,7 @@ fn validate_in<R: SimdDot>(
                         }
                         let mut off = 0;
                         let mut total = 0.0;
-                        for (stay, &(a, b)) in stays.iter().zip(&windows) {
+                        for (stay, &(a, b)) in stays.iter().zip(windows) {
                             let len = (b - a) * d;
                             total += orbit_nmse(&kept[c * per_col + off..c * per_col + off + len], stay, d);
                             off += len;
@@ -465,7 +484,7 @@ fn validate_in<R: SimdDot>(
             ValidationPoint { penalty: c.penalty, nmse, nmse_per_draw: per }
         })
         .collect();
-    Ok((curve, x0.iter().map(|v| v.to_f64()).collect()))
+    Ok((curve, x0[..n].iter().map(|v| v.to_f64()).collect()))
 }
 
 fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
@@ -474,7 +493,7 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
     settings.check_noise()?;
     let Harvest { states, targets } =
         harvest_in(&engine, &data.train, settings.washout, Some((settings.teacher_noise, settings.noise_seed)))?;
-    let (rows, n, d) = (states.nrows(), engine.n, engine.d);
+    let (rows, n, d) = (states.nrows(), engine.shared.n, engine.shared.d);
     let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
     let grid = &settings.penalties;
     let candidates: Vec<Candidate> =

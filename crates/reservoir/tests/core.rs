@@ -52,8 +52,10 @@ fn rescaled_matrix_has_the_requested_spectral_radius() {
     for (n, rho) in [(60, 1.0), (150, 0.8), (300, 1.0)] {
         let cfg = ReservoirConfig { spectral_radius: rho, ..config(n) }.check().unwrap();
         let r = Reservoir::new(&cfg, 3).unwrap();
-        let got = spectral_radius(r.w(), n).unwrap();
+        let got = spectral_radius(&r.w(), n).unwrap();
         assert!((got - rho).abs() < 1e-9 * rho, "n {n}: radius {got}, wanted {rho}");
+        let unit = spectral_radius(r.w_unit(), n).unwrap();
+        assert!((unit - 1.0).abs() < 1e-9, "n {n}: unit radius {unit}");
         if n == 300 {
             // 50 % connectivity of N(0,1) weights: the raw radius is about sqrt(N/2)
             // (circular law; small N fluctuate more, so only the largest is checked).
@@ -79,11 +81,17 @@ fn weights_follow_the_config() {
     assert!(r.bias().iter().all(|b| (0.0..=0.1).contains(b)));
     // An extra control input leaves W, feedback and bias unchanged (separate random streams).
     let plain = Reservoir::new(&config(400).check().unwrap(), 5).unwrap();
-    assert_eq!(plain.w(), r.w());
+    assert_eq!(plain.w_unit(), r.w_unit());
+    assert!(plain.shares_w_with(&r));
     assert_eq!(plain.bias(), r.bias());
     // Same seed, same weights; another seed, other weights.
     assert_eq!(Reservoir::new(&config(400).check().unwrap(), 5).unwrap(), plain);
-    assert_ne!(Reservoir::new(&config(400).check().unwrap(), 6).unwrap().w(), plain.w());
+    let other = Reservoir::new(&config(400).check().unwrap(), 6).unwrap();
+    assert_ne!(other.w_unit(), plain.w_unit());
+    assert!(!other.shares_w_with(&plain));
+    // Another spectral radius, the same unit matrix.
+    let wider = Reservoir::new(&ReservoirConfig { spectral_radius: 0.8, ..config(400) }.check().unwrap(), 5).unwrap();
+    assert!(wider.shares_w_with(&plain));
 }
 
 #[test]

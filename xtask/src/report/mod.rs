@@ -113,6 +113,31 @@ fn run_config(path: &Path, opts: Options, times: &mut Vec<(String, f64)>) -> any
     Ok(o)
 }
 
+/// Runs two configurations that share their reservoirs together, timing both as one.
+fn run_pair(
+    paths: &[PathBuf],
+    configs: &[Config],
+    opts: Options,
+    times: &mut Vec<(String, f64)>,
+) -> anyhow::Result<Vec<(String, Outcome)>> {
+    let t = Instant::now();
+    let names: Vec<String> = paths.iter().map(|p| rel(p)).collect();
+    for (n, c) in names.iter().zip(configs) {
+        eprintln!("  {n}: {}", c.experiment.as_ref().map_or("", |e| e.title.as_str()));
+    }
+    eprintln!("    (their seeds run together: the same reservoirs)");
+    let refs: Vec<&Config> = configs.iter().collect();
+    let outcomes =
+        experiment::run_together(&refs, opts, &Bars).with_context(|| format!("running {}", names.join(" and ")))?;
+    for (n, o) in names.iter().zip(&outcomes) {
+        let (p, k) = o.passed();
+        eprintln!("    {n}: {p} of {k} passed");
+    }
+    eprintln!("    ({:.1} s)", t.elapsed().as_secs_f64());
+    times.push((names.join(" + "), t.elapsed().as_secs_f64()));
+    Ok(names.into_iter().zip(outcomes).collect())
+}
+
 /// Everything a report is rendered from.
 struct Results {
     main: Vec<(String, Outcome)>,
@@ -128,9 +153,19 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     let mut main = Vec::new();
     if args.experiment != Part::Families {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
-        for name in RESERVOIR {
-            let p = dir.join(format!("{name}.toml"));
-            main.push((rel(&p), run_config(&p, opts, &mut times)?));
+        let paths: Vec<PathBuf> = RESERVOIR.iter().map(|name| dir.join(format!("{name}.toml"))).collect();
+        let configs = paths.iter().map(|p| Config::load(p)).collect::<Result<Vec<_>, _>>()?;
+        let mut i = 0;
+        while i < paths.len() {
+            // E6 with the paper's protocol and with ours draw the same reservoirs:
+            // their seeds run together, one pass over the weights for both.
+            if i + 1 < paths.len() && experiment::share_reservoirs(&configs[i], &configs[i + 1]) {
+                main.extend(run_pair(&paths[i..i + 2], &configs[i..i + 2], opts, &mut times)?);
+                i += 2;
+            } else {
+                main.push((rel(&paths[i]), run_config(&paths[i], opts, &mut times)?));
+                i += 1;
+            }
         }
     }
     let families = if args.experiment != Part::Reservoir {

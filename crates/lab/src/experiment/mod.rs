@@ -152,7 +152,7 @@ impl Outcome {
             Outcome::Stability(r) => (r.seeds.iter().filter(|s| s.stability.accurate).count(), r.seeds.len()),
             Outcome::Frequency(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
             Outcome::Gaits(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
-            Outcome::Coupling(r) => (usize::from(r.passed), 1),
+            Outcome::Coupling(r) => (r.n_passed(), r.seeds.len()),
         }
     }
 }
@@ -206,6 +206,42 @@ pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
         penalty_grid: (crate::train::train_settings(c)?.penalties.len(), g.start, g.stop),
         n_neurons,
     })
+}
+
+/// Whether E6 configurations `a` and `b` draw the same reservoir for every
+/// seed they run (the same `[reservoir]` section, seeds and quick size), so
+/// that [`run_together`] can advance their long free runs in one pass.
+pub fn share_reservoirs(a: &Config, b: &Config) -> bool {
+    match (a.experiment.as_ref(), b.experiment.as_ref()) {
+        (Some(x), Some(y)) => match (&x.coupling, &y.coupling) {
+            (Some(kx), Some(ky)) => {
+                a.reservoir == b.reservoir
+                    && x.seeds == y.seeds
+                    && x.quick_seeds == y.quick_seeds
+                    && kx.quick_neurons == ky.quick_neurons
+            }
+            _ => false,
+        },
+        _ => false,
+    }
+}
+
+/// Runs several experiments, each with the outcome [`run`] gives it. E6
+/// configurations that [`share_reservoirs`] run their seeds together (see
+/// [`coupling::run_together`]); the others run one after another.
+pub fn run_together(cs: &[&Config], opts: Options, progress: &dyn Progress) -> Result<Vec<Outcome>> {
+    let shared = cs.len() > 1 && cs.windows(2).all(|w| share_reservoirs(w[0], w[1]));
+    if !shared {
+        return cs.iter().map(|c| run(c, opts, progress)).collect();
+    }
+    let items = cs
+        .iter()
+        .map(|c| {
+            let k = section(c)?.coupling.as_ref().ok_or_else(|| c.error("experiment.coupling", "missing"))?;
+            Ok((*c, k))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(coupling::run_together(&items, opts, progress)?.into_iter().map(|r| Outcome::Coupling(Box::new(r))).collect())
 }
 
 /// Runs the experiment of `c`.

@@ -1,0 +1,232 @@
+//! Batched free runs against the generator they must equal bit for bit:
+//! whatever the other runs, their number, their order and the thread count.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // integration tests fail loudly
+
+use cpg_regression::PenaltyGrid;
+use cpg_reservoir::batch::{Controls, Run, free_runs};
+use cpg_reservoir::*;
+
+fn sine(len: usize, offset: usize) -> Vec<f64> {
+    (offset..offset + len).map(|k| 1.5 * (k as f64 / 4.0).sin()).collect()
+}
+
+/// A model with one control input (constant 1 while training) whose
+/// reservoir differs from the base only in the scalars a batch shares `Ŵ` across.
+fn model(n: usize, seed: u64, precision: Precision, tweak: impl Fn(&mut ReservoirConfig)) -> TrainedCpg {
+    let mut c = ReservoirConfig {
+        n_neurons: n,
+        precision,
+        inputs: vec![Coupling { fraction: 0.5, scale: 0.2, center: 1.0 }],
+        ..ReservoirConfig::wyffels_schrauwen_2009()
+    };
+    tweak(&mut c);
+    let res = Reservoir::new(&c.check().unwrap(), seed).unwrap();
+    let seq = |len, off| Sequence { outputs: sine(len, off), controls: vec![1.0; len] };
+    let data = TrainingData::nmse(seq(800, 0), seq(800, 0), seq(200, 800));
+    let settings = TrainSettings {
+        washout: 100,
+        penalties: PenaltyGrid::log10_range(0.0, 1.0, -6.0).unwrap(),
+        n_noise_draws: 1,
+        ..TrainSettings::wyffels_schrauwen_2009()
+    };
+    let tr = train(&res, &data, &settings).unwrap();
+    let out = vec![OutputChannel { name: "sine".into(), mean: 0.0, std: 1.0 }];
+    TrainedCpg::new(res, tr, settings, Scoring::default(), out, vec!["u".into()], "sine".into(), 120.0).unwrap()
+}
+
+/// A control that ramps: 1 for 100 steps, then up to 1.4.
+struct Ramp;
+impl Controls for Ramp {
+    fn fill(&self, step: usize, out: &mut [f64]) {
+        out[0] = 1.0 + 0.4 * ((step as f64 - 100.0) / 300.0).clamp(0.0, 1.0);
+    }
+}
+
+/// What the generator gives for a run: normalised outputs, step by step.
+fn stepped(run: &Run<'_>) -> Result<Vec<f64>> {
+    let mut g = Generator::new(run.model);
+    if let Some((v, seed)) = run.noise {
+        g.set_state_noise(v, seed);
+    }
+    let mut u = vec![0.0; run.model.controls.len()];
+    let mut y = Vec::new();
+    for k in 0..run.steps {
+        run.controls.fill(k, &mut u);
+        match run.hold {
+            Some(h) if (h.from..h.from + h.len).contains(&k) => g.step_clamped(&u, &h.values)?,
+            _ => g.step(&u)?,
+        };
+        y.extend_from_slice(g.normalised_output());
+    }
+    Ok(y)
+}
+
+fn same(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+#[test]
+fn batched_runs_equal_generator_runs_whatever_the_company_order_and_threads() {
+    for precision in [Precision::F32, Precision::F64] {
+        let base = model(64, 3, precision, |_| {});
+        let models = [
+            base.clone(),
+            model(64, 3, precision, |c| c.spectral_radius = 0.85),
+            model(64, 3, precision, |c| c.leak_rate = 0.5),
+            model(64, 3, precision, |c| c.feedback.scale = 0.1),
+            model(64, 3, precision, |c| c.inputs[0].scale = 0.35),
+            model(64, 3, precision, |c| c.bias_range = [-0.1, 0.2]),
+            model(64, 4, precision, |_| {}), // another W: a batch of its own
+        ];
+        for m in &models[1..6] {
+            assert!(m.reservoir.shares_w_with(&base.reservoir), "only scalars differ");
+        }
+        assert!(!models[6].reservoir.shares_w_with(&base.reservoir));
+        let hold = Hold { from: 50, len: 6, values: vec![3.0] };
+        let constant = vec![1.0];
+        let mut runs = Vec::new();
+        for m in &models {
+            runs.push(Run::new(m, &constant, 400));
+            runs.push(Run { hold: Some(&hold), ..Run::new(m, &constant, 300) });
+            runs.push(Run { noise: Some((1e-4, 11)), ..Run::new(m, &Ramp, 500) });
+        }
+        let want: Vec<Vec<f64>> = runs.iter().map(|r| stepped(r).unwrap()).collect();
+        for threads in [1, 2, 3] {
+            let got = free_runs(&runs, threads);
+            for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert!(same(g.as_ref().unwrap(), w), "{precision:?}, run {k}, {threads} threads");
+            }
+        }
+        // Reversed, and each alone.
+        let reversed: Vec<Run<'_>> = runs.iter().rev().copied().collect();
+        for (g, w) in free_runs(&reversed, 2).iter().zip(want.iter().rev()) {
+            assert!(same(g.as_ref().unwrap(), w), "{precision:?}, reversed");
+        }
+        for (r, w) in runs.iter().zip(&want) {
+            assert!(same(free_runs(std::slice::from_ref(r), 1)[0].as_ref().unwrap(), w), "{precision:?}, alone");
+        }
+        // The radius really acts: the runs differ.
+        assert!(!same(&want[0], &want[3]));
+    }
+}
+
+#[test]
+fn one_long_run_split_over_two_cores_gives_the_same_bits() {
+    for precision in [Precision::F32, Precision::F64] {
+        let m = model(300, 5, precision, |_| {});
+        let hold = Hold { from: 1000, len: 6, values: vec![-3.0] };
+        let level = vec![1.2];
+        let runs = [
+            Run::new(&m, &Ramp, 3000),
+            Run { hold: Some(&hold), ..Run::new(&m, &Ramp, 2500) },
+            Run::new(&m, &level, 1200),
+            Run { noise: Some((1e-5, 3)), ..Run::new(&m, &level, 1500) },
+        ];
+        let want: Vec<Vec<f64>> = runs.iter().map(|r| stepped(r).unwrap()).collect();
+        for (run, want) in runs.iter().zip(&want) {
+            for threads in [1, 2] {
+                let got = free_runs(std::slice::from_ref(run), threads);
+                assert!(same(got[0].as_ref().unwrap(), want), "{precision:?}, {threads} threads");
+            }
+        }
+        // Fewer than four runs together: the noise-free ones split by rows, the noisy one not.
+        for k in [2, 3] {
+            let got = free_runs(&runs[4 - k..], 2);
+            for (g, w) in got.iter().zip(&want[4 - k..]) {
+                assert!(same(g.as_ref().unwrap(), w), "{precision:?}, {k} runs together");
+            }
+        }
+        // A split run that diverges ends as an error; its twin runs on to its end.
+        let wild = vec![f64::NAN];
+        let got = free_runs(&[Run::new(&m, &wild, 1000), Run::new(&m, &level, 1200)], 2);
+        assert!(matches!(got[0], Err(Error::Diverged { .. })), "{precision:?}: {:?}", got[0].as_ref().err());
+        assert!(same(got[1].as_ref().unwrap(), &want[2]), "{precision:?}, beside a diverging run");
+    }
+}
+
+#[test]
+fn a_diverging_run_is_an_error_and_its_company_is_not() {
+    let m = model(64, 3, Precision::F32, |_| {});
+    let wild = vec![f64::MAX];
+    let calm = vec![1.0];
+    let got = free_runs(&[Run::new(&m, &calm, 200), Run::new(&m, &wild, 200), Run::new(&m, &calm, 100)], 1);
+    assert!(matches!(got[1], Err(Error::Diverged { .. })), "{:?}", got[1].as_ref().err());
+    assert!(same(got[0].as_ref().unwrap(), &stepped(&Run::new(&m, &calm, 200)).unwrap()));
+    assert_eq!(got[2].as_ref().unwrap().len(), 100);
+    let bad = Hold { from: 0, len: 1, values: vec![1.0, 2.0] };
+    let got = free_runs(&[Run { hold: Some(&bad), ..Run::new(&m, &calm, 10) }], 1);
+    assert!(matches!(got[0], Err(Error::Shape(_))));
+}
+
+#[test]
+fn steps_of_a_batch_allocate_nothing() {
+    let models: Vec<TrainedCpg> =
+        (0..3).map(|k| model(64, 3, Precision::F32, |c| c.leak_rate = 0.3 + 0.1 * k as f64)).collect();
+    let calm = vec![1.0];
+    let count = |steps: usize| {
+        let runs: Vec<Run<'_>> =
+            models.iter().map(|m| Run { noise: Some((1e-4, 1)), ..Run::new(m, &calm, steps) }).collect();
+        allocation_counter::measure(|| {
+            std::hint::black_box(free_runs(&runs, 1));
+        })
+        .count_total
+    };
+    // Everything is allocated before the first step: ten times the steps,
+    // the same allocations.
+    assert_eq!(count(100), count(1000));
+    let mut g = Generator::new(&models[0]);
+    g.set_state_noise(1e-4, 1);
+    let steps = allocation_counter::measure(|| {
+        for _ in 0..1000 {
+            std::hint::black_box(g.step(&[1.0]).unwrap());
+        }
+    });
+    assert_eq!(steps.count_total, 0, "a generator step allocates nothing");
+}
+
+#[test]
+fn version_2_model_files_are_read_with_w_at_radius_one() {
+    for rho in [1.0, 0.8] {
+        let m = model(32, 2, Precision::F64, |c| c.spectral_radius = rho);
+        let mut bytes = m.to_bytes().unwrap();
+        assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
+        // A version 2 file stored W scaled by the radius.
+        let payload = bytes.split_off(28);
+        let path = std::path::Path::new("v2.cpg");
+        let v3 = TrainedCpg::from_bytes(&TrainedCpg::frame_payload(&payload), path).unwrap();
+        assert_eq!(v3, m);
+        let scaled = scaled_payload(&m, rho);
+        let mut v2 = TrainedCpg::frame_payload(&scaled);
+        v2[8..12].copy_from_slice(&2u32.to_le_bytes());
+        let old = TrainedCpg::from_bytes(&v2, path).unwrap();
+        let err: f64 =
+            old.reservoir.w_unit().iter().zip(m.reservoir.w_unit()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        if rho == 1.0 {
+            assert_eq!(old, m, "at radius 1 a version 2 file is read exactly");
+        } else {
+            assert!(err < 1e-15, "{err}");
+        }
+        let mut v9 = TrainedCpg::frame_payload(&payload);
+        v9[8..12].copy_from_slice(&9u32.to_le_bytes());
+        let e = TrainedCpg::from_bytes(&v9, path).unwrap_err().to_string();
+        assert!(e.contains("format version 9") && e.contains("reads versions 2 to"), "{e}");
+    }
+}
+
+/// The payload of `m` with W multiplied by `rho` (what version 2 stored).
+fn scaled_payload(m: &TrainedCpg, rho: f64) -> Vec<u8> {
+    let r = &m.reservoir;
+    let scaled = Reservoir::from_parts(
+        r.config().clone(),
+        r.seed(),
+        r.w_unit().iter().map(|v| v * rho).collect(),
+        r.w_feedback().to_vec(),
+        r.w_input().to_vec(),
+        r.bias().to_vec(),
+        r.raw_spectral_radius(),
+    )
+    .unwrap();
+    let v = TrainedCpg { reservoir: scaled, ..m.clone() };
+    v.to_bytes().unwrap().split_off(28)
+}
