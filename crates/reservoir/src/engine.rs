@@ -305,6 +305,38 @@ pub(crate) struct Column<'a, R: SimdDot> {
     pub holds: &'a [Hold],
 }
 
+impl<R: SimdDot> Column<'_, R> {
+    /// The values fed back at step `s` (the outputs `y`, or a hold's values)
+    /// into `fed`, and the control values of step `s` into `us` (`ctl` is
+    /// scratch of the controls' width). Every runner calls this, so the paths
+    /// give the same bits.
+    #[inline(always)]
+    fn inputs(&self, s: usize, y: &[R], fed: &mut [R], us: &mut [R], ctl: &mut [f64]) {
+        match self.holds.iter().find(|h| (h.from..h.from + h.len).contains(&s)) {
+            Some(h) => {
+                for (a, b) in fed.iter_mut().zip(&h.values) {
+                    *a = R::from_f64(*b);
+                }
+            }
+            None => fed.copy_from_slice(y),
+        }
+        let u = us.len();
+        match self.controls {
+            ControlSource::Table(t) => {
+                for (a, b) in us.iter_mut().zip(&t[s * u..(s + 1) * u]) {
+                    *a = R::from_f64(*b);
+                }
+            }
+            ControlSource::Fn(f) => {
+                f.fill(s, ctl);
+                for (a, b) in us.iter_mut().zip(ctl.iter()) {
+                    *a = R::from_f64(*b);
+                }
+            }
+        }
+    }
+}
+
 /// Receives a column's outputs, step by step, before they are fed back.
 pub(crate) trait Observer<R> {
     /// Output `y` of step `step`; `false` stops the column (it diverged or is done).
@@ -397,29 +429,7 @@ fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
             let y = &mut ys[i * d..(i + 1) * d];
             col.readout.apply(simd, &xs[i * np..i * np + n], y);
             stopped[i] = !observers[c].see(s, y);
-            let f = &mut fed[i * d..(i + 1) * d];
-            match col.holds.iter().find(|h| (h.from..h.from + h.len).contains(&s)) {
-                Some(h) => {
-                    for (a, b) in f.iter_mut().zip(&h.values) {
-                        *a = R::from_f64(*b);
-                    }
-                }
-                None => f.copy_from_slice(y),
-            }
-            let uc = &mut us[i * u..(i + 1) * u];
-            match col.controls {
-                ControlSource::Table(t) => {
-                    for (a, b) in uc.iter_mut().zip(&t[s * u..(s + 1) * u]) {
-                        *a = R::from_f64(*b);
-                    }
-                }
-                ControlSource::Fn(f) => {
-                    f.fill(s, &mut ctl);
-                    for (a, b) in uc.iter_mut().zip(&ctl) {
-                        *a = R::from_f64(*b);
-                    }
-                }
-            }
+            col.inputs(s, y, &mut fed[i * d..(i + 1) * d], &mut us[i * u..(i + 1) * u], &mut ctl);
         }
         shared.product(simd, &xs[..live * np], &mut pre[..live * np], (0, np));
         for i in 0..live {
@@ -547,29 +557,7 @@ pub(crate) fn run_split<R: SimdDot, O: Observer<R>>(
                             stopped[c] = true;
                             live -= 1;
                         }
-                        let f = &mut fed[c * d..(c + 1) * d];
-                        match col.holds.iter().find(|h| (h.from..h.from + h.len).contains(&s)) {
-                            Some(h) => {
-                                for (f, v) in f.iter_mut().zip(&h.values) {
-                                    *f = R::from_f64(*v);
-                                }
-                            }
-                            None => f.copy_from_slice(y),
-                        }
-                        let uc = &mut us[c * u..(c + 1) * u];
-                        match col.controls {
-                            ControlSource::Table(tab) => {
-                                for (a, v) in uc.iter_mut().zip(&tab[s * u..(s + 1) * u]) {
-                                    *a = R::from_f64(*v);
-                                }
-                            }
-                            ControlSource::Fn(f) => {
-                                f.fill(s, &mut ctl);
-                                for (a, v) in uc.iter_mut().zip(&ctl) {
-                                    *a = R::from_f64(*v);
-                                }
-                            }
-                        }
+                        col.inputs(s, y, &mut fed[c * d..(c + 1) * d], &mut us[c * u..(c + 1) * u], &mut ctl);
                     }
                     if live == 0 {
                         stop.store(true, Ordering::Relaxed);

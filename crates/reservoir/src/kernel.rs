@@ -153,13 +153,17 @@ macro_rules! simd_dot {
                             acc[q].copy_from_slice(&sv[..B]);
                         }
                     }
-                    // Every slice is cut to the tile's length up front, so the
-                    // loop's indices need no checks.
+                    // Every slice is cut to the tile's length up front and its
+                    // length asserted, so the loop's indices need no checks.
                     let len = j1 - j0;
-                    let x: [&[$t]; Q] = core::array::from_fn(|q| {
+                    let mut x: [&[$t]; Q] = [&[]; Q];
+                    for (q, x) in x.iter_mut().enumerate() {
                         let at = (c + q) * np + j0;
-                        &xs[at..at + len]
-                    });
+                        *x = &xs[at..at + len];
+                    }
+                    for x in &x {
+                        assert_eq!(x.len(), len);
+                    }
                     for (jj, col) in (0..len).zip(pw[j0 * h..j1 * h].chunks_exact(h)) {
                         let (col, _) = S::$as_simd(&col[i..i + B * lanes]);
                         let col: &[S::$v; B] = col.try_into().unwrap_or_else(|_| unreachable!());
@@ -238,9 +242,8 @@ macro_rules! simd_dot {
                         }
                     } else {
                         // Many columns: each tile of the panel is read from the
-                        // outer caches once per product. Four columns × four
-                        // row vectors of accumulators fit the 32 registers of
-                        // AVX-512; narrower instruction sets (16 registers) take two.
+                        // outer caches once per product, by groups of columns
+                        // whose accumulators fill the registers (see `groups`).
                         let mut i = a;
                         while i < b {
                             let bw = if wide && i + 4 * lanes <= b {
@@ -254,32 +257,27 @@ macro_rules! simd_dot {
                             while j0 < n {
                                 let j = (j0, (j0 + jt).min(n));
                                 let mut c = 0;
-                                if !wide {
-                                    // Sixteen registers: six columns × two row
-                                    // vectors keep twelve chains in flight.
-                                    while c + 6 <= k {
-                                        match bw {
-                                            2 => block::<S, 6, 2>(simd, panel, np, xs, out, (c, i), j),
-                                            _ => block::<S, 6, 1>(simd, panel, np, xs, out, (c, i), j),
-                                        }
-                                        c += 6;
+                                for q in groups(k, wide) {
+                                    let at = (c, i);
+                                    match (q, bw) {
+                                        (6, 2) => block::<S, 6, 2>(simd, panel, np, xs, out, at, j),
+                                        (6, _) => block::<S, 6, 1>(simd, panel, np, xs, out, at, j),
+                                        (5, 2) => block::<S, 5, 2>(simd, panel, np, xs, out, at, j),
+                                        (5, _) => block::<S, 5, 1>(simd, panel, np, xs, out, at, j),
+                                        (4, 4) => block::<S, 4, 4>(simd, panel, np, xs, out, at, j),
+                                        (4, 2) => block::<S, 4, 2>(simd, panel, np, xs, out, at, j),
+                                        (4, _) => block::<S, 4, 1>(simd, panel, np, xs, out, at, j),
+                                        (3, 4) => block::<S, 3, 4>(simd, panel, np, xs, out, at, j),
+                                        (3, 2) => block::<S, 3, 2>(simd, panel, np, xs, out, at, j),
+                                        (3, _) => block::<S, 3, 1>(simd, panel, np, xs, out, at, j),
+                                        (2, 4) => block::<S, 2, 4>(simd, panel, np, xs, out, at, j),
+                                        (2, 2) => block::<S, 2, 2>(simd, panel, np, xs, out, at, j),
+                                        (2, _) => block::<S, 2, 1>(simd, panel, np, xs, out, at, j),
+                                        (_, 4) => block::<S, 1, 4>(simd, panel, np, xs, out, at, j),
+                                        (_, 2) => block::<S, 1, 2>(simd, panel, np, xs, out, at, j),
+                                        _ => block::<S, 1, 1>(simd, panel, np, xs, out, at, j),
                                     }
-                                }
-                                while c + 4 <= k {
-                                    match bw {
-                                        4 => block::<S, 4, 4>(simd, panel, np, xs, out, (c, i), j),
-                                        2 => block::<S, 4, 2>(simd, panel, np, xs, out, (c, i), j),
-                                        _ => block::<S, 4, 1>(simd, panel, np, xs, out, (c, i), j),
-                                    }
-                                    c += 4;
-                                }
-                                while c < k {
-                                    match bw {
-                                        4 => block::<S, 1, 4>(simd, panel, np, xs, out, (c, i), j),
-                                        2 => block::<S, 1, 2>(simd, panel, np, xs, out, (c, i), j),
-                                        _ => block::<S, 1, 1>(simd, panel, np, xs, out, (c, i), j),
-                                    }
-                                    c += 1;
+                                    c += q;
                                 }
                                 j0 = j.1;
                             }
@@ -295,6 +293,36 @@ macro_rules! simd_dot {
 
 simd_dot!(f32, f32s, F32_LANES, as_simd_f32s, splat_f32s, add_f32s, mul_f32s, mul_add_f32s);
 simd_dot!(f64, f64s, F64_LANES, as_simd_f64s, splat_f64s, add_f64s, mul_f64s, mul_add_f64s);
+
+/// How the many-column product splits `k` columns into groups that share
+/// each load of `W`: as many accumulators as the registers hold (four
+/// columns × four row vectors in the 32 registers of AVX-512; six × two in
+/// the 16 of narrower sets), and no group so small that its few chains of
+/// multiply-adds wait on their own latency: on a narrow set, thirty-two
+/// columns are four groups of six and two of four, not five of six and two
+/// single columns. The sizes sum to `k`.
+fn groups(k: usize, wide: bool) -> impl Iterator<Item = usize> {
+    let mut rem = k;
+    core::iter::from_fn(move || {
+        if rem == 0 {
+            return None;
+        }
+        let q = if wide {
+            rem.min(4)
+        } else {
+            match rem {
+                13 => 5,
+                12.. => 6,
+                7 | 8 => 4,
+                9 | 10 => 5,
+                11 => 6,
+                r => r,
+            }
+        };
+        rem -= q;
+        Some(q)
+    })
+}
 
 /// `Σ a[i]·b[i]` with the crate's fixed summation order, in the best
 /// instruction set of this machine.
@@ -440,10 +468,10 @@ mod tests {
     fn every_column_count_and_row_split_gives_the_definition_bit_for_bit() {
         for n in [1, 7, 8, 13, 16, 64, 150, 301] {
             let np = padded(n);
-            let (w, xs64) = columns(n, 9);
+            let (w, xs64) = columns(n, 32);
             let wt = pack(&w, n, |v| v as f32);
             let wt = wt.as_slice();
-            for k in [1, 2, 3, 4, 5, 8, 9] {
+            for k in [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 32] {
                 let mut xs = vec![0.0f32; np * k];
                 for c in 0..k {
                     for j in 0..n {
@@ -502,6 +530,23 @@ mod tests {
             let def = reference(&w, n, &xs64[c], |v| v, f64::mul_add);
             for i in 0..n {
                 assert_eq!(out[c * np + i].to_bits(), def[i].to_bits(), "col {c}, row {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn column_groups_cover_every_column_without_tiny_groups() {
+        for wide in [false, true] {
+            for k in 4..200 {
+                let g: Vec<usize> = groups(k, wide).collect();
+                assert_eq!(g.iter().sum::<usize>(), k, "k {k}: {g:?}");
+                let most = if wide { 4 } else { 6 };
+                assert!(g.iter().all(|&q| (1..=most).contains(&q)), "k {k}: {g:?}");
+                if !wide {
+                    // At most one group below four columns, and only for k = 7.
+                    let small = g.iter().filter(|&&q| q < 4).count();
+                    assert_eq!(small, usize::from(k == 7), "k {k}: {g:?}");
+                }
             }
         }
     }
