@@ -46,7 +46,8 @@ pub struct Args {
     #[arg(long, default_value_t = BASELINE_STEP_US, value_name = "µs")]
     baseline_step_us: f64,
     /// Leave out the timed full evaluation (`cargo xtask evaluate` with 10
-    /// seeds everywhere, about ten minutes on two cores).
+    /// seeds everywhere, the longest part of the bench: 17 minutes on a
+    /// two-core AVX2 machine).
     #[arg(long)]
     no_evaluate: bool,
 }
