@@ -121,12 +121,11 @@ fn stream_time<T: Copy + Default + std::ops::Add<Output = T>>(w: &[T], threads: 
     })
 }
 
-/// One step's exchange of the row-split run with no work between: two
-/// threads, each publishing its half of an `n`-neuron state (`T` values)
-/// behind a lock on its own cache lines, raising its step counter, spinning
-/// on the other's and copying the other half in, as `run_split` does.
-/// Returns the time per step.
-fn exchange_time<T: Copy + Default + Send>(n: usize, steps: usize) -> Duration {
+/// `steps` exchanges of the row-split run with no work between: two threads,
+/// each publishing its half of an `n`-neuron state (`T` values) behind a
+/// lock on its own cache lines, raising its step counter, spinning on the
+/// other's and copying the other half in, as `run_split` does.
+fn exchange<T: Copy + Default + Send>(n: usize, steps: usize) {
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicUsize, Ordering};
     #[repr(align(128))]
@@ -152,12 +151,10 @@ fn exchange_time<T: Copy + Default + Send>(n: usize, steps: usize) -> Duration {
         }
         black_box(x);
     };
-    let t = Instant::now();
     std::thread::scope(|sc| {
         sc.spawn(|| side(1));
         side(0);
     });
-    t.elapsed() / steps as u32
 }
 
 /// Twelve independent chains of fused multiply-adds on full vectors: the
@@ -516,17 +513,13 @@ fn one_stream(models: &[(usize, Precision, TrainedCpg)]) -> anyhow::Result<()> {
             g.step(&[])?;
             stepped.push(g.normalised_output()[0]);
         }
-        let sync = {
-            let mut v: Vec<f64> = (0..3)
-                .map(|_| match precision {
-                    Precision::F32 => exchange_time::<f32>(*n, 20_000),
-                    Precision::F64 => exchange_time::<f64>(*n, 20_000),
-                })
-                .map(|d| d.as_secs_f64())
-                .collect();
-            v.sort_by(f64::total_cmp);
-            v[1]
-        };
+        let exchanges = 20_000;
+        let sync = median3(|| match precision {
+            Precision::F32 => exchange::<f32>(*n, exchanges),
+            Precision::F64 => exchange::<f64>(*n, exchanges),
+        })
+        .as_secs_f64()
+            / exchanges as f64;
         let same = split.iter().map(|v| v.to_bits()).eq(alone.iter().map(|v| v.to_bits()))
             && stepped.iter().map(|v| v.to_bits()).eq(alone.iter().map(|v| v.to_bits()));
         let (target, ok) = if *n == 300 && *precision == Precision::F32 {
@@ -742,9 +735,6 @@ fn cpg_e1(cpg: &Path, dir: &Path, seed: u64, teacher: &[f64]) -> anyhow::Result<
     Ok(CpgE1 { train, generate, penalty: m.provenance.chosen_penalty, first500_nmse: nmse(&norm, teacher) })
 }
 
-/// Part 3 (and the E1 rows of part 5): the E1 pipeline, alone or side by
-/// side with ReservoirPy. Returns the peaks of `cpg train` and `cpg generate`
-/// (seed 1).
 /// Peak memory of one run of the E1 pipeline, MiB.
 struct E1Peaks {
     train: Option<f64>,
@@ -752,6 +742,9 @@ struct E1Peaks {
     reservoirpy: Option<f64>,
 }
 
+/// Part 3 (and the E1 rows of part 5): the E1 pipeline, alone or side by
+/// side with ReservoirPy. Returns the peaks of every run (one alone, one per
+/// pair beside ReservoirPy).
 fn e1_pipeline(
     e1: &cpg_lab::Config,
     f: &Prepared,
