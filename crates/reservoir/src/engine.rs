@@ -194,8 +194,23 @@ impl<R: SimdDot> ReadoutR<R> {
     pub fn apply<S: Simd>(&self, simd: S, x: &[R], y: &mut [R]) {
         let n = self.w.len() / self.b.len().max(1);
         let x = &x[..n];
-        for (k, yk) in y.iter_mut().enumerate() {
+        // Four outputs at a time: four independent chains of additions
+        // instead of one that waits on its own latency. The state takes the
+        // place of the shared row; products commute exactly, so each output
+        // has the bits `dot_simd` gives it.
+        let mut quads = y.chunks_exact_mut(4);
+        let mut k = 0;
+        for yq in &mut quads {
+            let w = |r: usize| &self.w[(k + r) * n..(k + r + 1) * n];
+            let d = R::dot4_simd(simd, x, [w(0), w(1), w(2), w(3)]);
+            for (r, yk) in yq.iter_mut().enumerate() {
+                *yk = d[r] + self.b[k + r];
+            }
+            k += 4;
+        }
+        for yk in quads.into_remainder() {
             *yk = R::dot_simd(simd, &self.w[k * n..(k + 1) * n], x) + self.b[k];
+            k += 1;
         }
     }
 }
@@ -613,4 +628,40 @@ pub struct Hold {
     pub len: usize,
     /// One value per output.
     pub values: Vec<f64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::dot;
+
+    /// Outputs computed four at a time have the bits of one dot product each,
+    /// whatever the output count's remainder and the state's tail.
+    #[test]
+    fn readout_four_at_a_time_gives_each_outputs_own_dot_product() {
+        fn check<R: SimdDot>() {
+            for (n, d) in [(1, 1), (17, 4), (33, 5), (300, 7), (301, 22)] {
+                let weights: Vec<f64> = (0..n * d).map(|k| ((k * 7919 % 1000) as f64 - 500.0) / 377.0).collect();
+                let bias: Vec<f64> = (0..d).map(|k| k as f64 * 0.37 - 1.0).collect();
+                let readout = Readout { n_features: n, weights, bias };
+                let r = ReadoutR::<R>::new(&readout);
+                let x: Vec<R> = (0..n).map(|j| R::from_f64(((j * 104_729 % 997) as f64 - 498.0) / 211.0)).collect();
+                struct Op<'a, R: SimdDot>(&'a ReadoutR<R>, &'a [R], &'a mut [R]);
+                impl<R: SimdDot> WithSimd for Op<'_, R> {
+                    type Output = ();
+                    fn with_simd<S: Simd>(self, simd: S) {
+                        self.0.apply(simd, self.1, self.2)
+                    }
+                }
+                let mut y = vec![R::ZERO; d];
+                pulp::Arch::new().dispatch(Op(&r, &x, &mut y));
+                for (k, yk) in y.iter().enumerate() {
+                    let want = dot(&r.w[k * n..(k + 1) * n], &x) + r.b[k];
+                    assert_eq!(yk.to_f64().to_bits(), want.to_f64().to_bits(), "n {n}, d {d}, output {k}");
+                }
+            }
+        }
+        check::<f32>();
+        check::<f64>();
+    }
 }
