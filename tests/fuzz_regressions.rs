@@ -111,6 +111,21 @@ fn the_model_seed_is_a_current_model() {
         std::fs::write(&path, payload).unwrap();
     }
     let kept = std::fs::read(&path).unwrap_or_default();
-    assert!(kept == payload, "{} is not the current model's payload: run with UPDATE_SNAPSHOTS=1", path.display());
+    let stale = || format!("{} is not the current model's payload: run with UPDATE_SNAPSHOTS=1", path.display());
+    // This build's format reads the kept payload and writes it back to the same bytes.
+    let back =
+        TrainedCpg::from_bytes(&TrainedCpg::frame_payload(&kept), &path).unwrap_or_else(|e| panic!("{}: {e}", stale()));
+    assert!(back.to_bytes().unwrap()[28..] == kept[..], "{}", stale());
+    // And it is the model trained above: the same layout and configuration,
+    // the trained numbers equal up to their last bits (the f64 linear algebra
+    // of the ridge fit rounds differently on another instruction set).
+    assert_eq!(kept.len(), payload.len(), "{}", stale());
+    assert_eq!(back.reservoir.config(), m.reservoir.config(), "{}", stale());
+    let close = |a: &[f64], b: &[f64]| {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1e-12))
+    };
+    assert!(close(&back.readout.weights, &m.readout.weights), "{}: readout weights", stale());
+    assert!(close(&back.readout.bias, &m.readout.bias), "{}: readout bias", stale());
+    assert!(close(&back.start_state, &m.start_state), "{}: start state", stale());
     checks::model(payload);
 }
