@@ -198,19 +198,17 @@ impl<R: SimdDot> ReadoutR<R> {
         // instead of one that waits on its own latency. The state takes the
         // place of the shared row; products commute exactly, so each output
         // has the bits `dot_simd` gives it.
-        let mut quads = y.chunks_exact_mut(4);
-        let mut k = 0;
-        for yq in &mut quads {
-            let w = |r: usize| &self.w[(k + r) * n..(k + r + 1) * n];
-            let d = R::dot4_simd(simd, x, [w(0), w(1), w(2), w(3)]);
-            for (r, yk) in yq.iter_mut().enumerate() {
-                *yk = d[r] + self.b[k + r];
+        let row = |k: usize| &self.w[k * n..(k + 1) * n];
+        let whole = y.len() / 4 * 4;
+        let (quads, rest) = y.split_at_mut(whole);
+        for (k, yq) in (0..).step_by(4).zip(quads.chunks_exact_mut(4)) {
+            let d = R::dot4_simd(simd, x, [row(k), row(k + 1), row(k + 2), row(k + 3)]);
+            for ((yk, dk), bk) in yq.iter_mut().zip(d).zip(&self.b[k..k + 4]) {
+                *yk = dk + *bk;
             }
-            k += 4;
         }
-        for yk in quads.into_remainder() {
-            *yk = R::dot_simd(simd, &self.w[k * n..(k + 1) * n], x) + self.b[k];
-            k += 1;
+        for (k, yk) in (whole..).zip(rest) {
+            *yk = R::dot_simd(simd, row(k), x) + self.b[k];
         }
     }
 }
