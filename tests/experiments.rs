@@ -34,17 +34,13 @@ fn running_teacher_is_one_stride_of_35_17() {
     }
 }
 
-/// Bound on the median, over reservoir seeds 1–5, of the NMSE of the first
-/// 500 free-run steps with the paper's protocol. For a sinusoid, a pure phase
-/// error φ costs 2(1 − cos φ), so 0.1 allows at most an 18° phase slip. Over
-/// seeds 1–10 we measured 0.0094–0.52 (median 0.046).
-const PAPER_MEDIAN_NMSE_BOUND: f64 = 0.1;
-
-/// E1 with the paper's protocol, the configuration the report runs: the
-/// pattern is learnt (median over 5 seeds), every seed beats predicting the
-/// mean, and 100,000 free-run steps stay finite and within ±90°.
+/// E1 with the paper's protocol, the configuration the report runs (its
+/// grid widened above the paper's 10^1, where the paper's score still
+/// pointed): every seed beats predicting the mean over the first 500 steps,
+/// most choose a penalty beyond the paper's grid, and 100,000 free-run steps
+/// stay within ±90°.
 #[test]
-fn e1_paper_protocol_learns_the_femur_pattern_and_stays_bounded() {
+fn e1_paper_protocol_stays_bounded_and_chooses_beyond_the_papers_grid() {
     let c = config("e1-paper");
     let seeds: Vec<u64> = (1..=5).collect();
     let (p, models) = experiment::train_seeds(&c, &seeds, &Quiet).unwrap();
@@ -52,6 +48,7 @@ fn e1_paper_protocol_learns_the_femur_pattern_and_stays_bounded() {
     let warmup = p.data.warmup.len(1);
     let teacher = experiment::stability::continuation(t, 1, warmup, 500);
     let mut nmse: Vec<f64> = Vec::new();
+    let mut beyond = 0;
     for (m, seed) in models.iter().zip(&seeds) {
         let mut g = Generator::new(m);
         let first: Vec<f64> = (0..500)
@@ -63,13 +60,13 @@ fn e1_paper_protocol_learns_the_femur_pattern_and_stays_bounded() {
         let e = experiment::stability::nmse(&first, &teacher, 1);
         assert!(e < 1.0, "seed {seed}: first-500 NMSE {e}");
         nmse.push(e);
+        beyond += usize::from(m.provenance.chosen_penalty > 10.0);
         for _ in 500..100_000 {
             let y = g.step(&[]).unwrap()[0];
             assert!((-90.0..90.0).contains(&y), "seed {seed}: femur angle {y} deg");
         }
     }
-    nmse.sort_by(f64::total_cmp);
-    assert!(nmse[2] < PAPER_MEDIAN_NMSE_BOUND, "median first-500 NMSE over seeds 1–5: {nmse:?}");
+    assert!(beyond >= 3, "{beyond} of 5 seeds chose a penalty above 10 (first-500 NMSEs {nmse:?})");
 }
 
 #[test]
@@ -80,25 +77,28 @@ fn e1_both_protocols_at_quick_size() {
         let st = &s.stability;
         assert!(st.accurate && st.converged, "seed {}: {st:?}", s.model.seed);
         assert!(s.first_nmse < 0.01, "seed {}: first-500 NMSE {}", s.model.seed, s.first_nmse);
-        assert!(s.recovery.orbit_s.is_some_and(|t| t < 2.0), "seed {}: {:?}", s.model.seed, s.recovery);
+        // Back on the orbit for good, within the 40 cycles after the push.
+        assert!(s.recovery.orbit_s.is_some(), "seed {}: {:?}", s.model.seed, s.recovery);
         assert!(!s.model.penalty_at_edge);
     }
-    assert!(ours.e1_verdict().passed && ours.e2_verdict().passed && ours.e3_verdict().passed);
+    assert!(ours.e1_verdict().passed() && ours.e2_verdict().passed() && ours.e3_verdict().passed());
+    // Fig. 2's pushed run shows the output forced to the held value while it is held.
+    let (at, len) = ((ours.push.at_s * 120.0).round() as usize, ours.push.hold_steps);
+    assert!(ours.fig2.pushed[at..at + len].iter().all(|v| (v - ours.push.held_units[0]).abs() < 1e-9));
+    assert!((ours.fig2.pushed[at - 1] - ours.push.held_units[0]).abs() > 1e-6);
     let Outcome::Stability(paper) = quick("e1-paper") else { panic!() };
-    assert!(paper.median_first_nmse() < PAPER_MEDIAN_NMSE_BOUND);
+    assert!(!paper.e2_verdict().passed(), "the paper's protocol keeps no seed accurate: {:?}", paper.claims);
     // The long run is judged against the same teacher, with the same push.
     assert_eq!(paper.teacher, ours.teacher);
     assert_eq!(paper.push, ours.push);
     assert!((paper.push.held_units[0] - 48.3).abs() < 0.1, "held at {}°", paper.push.held_units[0]);
 }
 
-#[test]
-fn e4_our_protocol_follows_the_control_from_1_to_6() {
-    let Outcome::Frequency(r) = quick("e4") else { panic!("e4 is a frequency experiment") };
-    assert!((r.f0_hz - 120.0 / 140.0).abs() < 1e-9, "f0 {}", r.f0_hz);
+/// Every plateau and held stretch of `r` within both tolerances, for every seed.
+fn every_plateau_passes(r: &experiment::frequency::FrequencyResult) {
     for s in &r.seeds {
         for p in s.plateaus.iter().chain(&s.figure) {
-            let ratio = p.measured_hz.map_or(0.0, |h| h / p.target_hz);
+            let ratio = p.frequency_ratio();
             assert!(
                 (ratio - 1.0).abs() < 0.05 && (p.amplitude_ratio - 1.0).abs() < 0.25,
                 "seed {} u = {}: {p:?}",
@@ -107,21 +107,135 @@ fn e4_our_protocol_follows_the_control_from_1_to_6() {
             );
         }
     }
+}
+
+#[test]
+fn e4_the_control_input_alone_moves_the_frequency_and_the_tempo_extension_follows_it_everywhere() {
+    // Ours is the paper's mechanism: no tempo input, the leak rate fixed.
+    let c = config("e4");
+    assert!(c.reservoir.tempo_input.is_none() && c.reservoir.leak_rate.is_none(), "{:?}", c.reservoir);
+    let Outcome::Frequency(r) = quick("e4") else { panic!("e4 is a frequency experiment") };
+    assert!((r.f0_hz - 120.0 / 135.0).abs() < 1e-9, "f0 {}", r.f0_hz);
+    // The frequency follows u at every plateau of every seed; the amplitude may sag at u = 6.
+    for s in &r.seeds {
+        for p in &s.plateaus {
+            assert!((p.frequency_ratio() - 1.0).abs() < 0.05, "seed {} u = {}: {p:?}", s.model.seed, p.u);
+        }
+    }
+    let Outcome::Frequency(x) = quick("e4-extension") else { panic!() };
+    assert!(config("e4-extension").reservoir.tempo_input.is_some());
+    every_plateau_passes(&x);
     let Outcome::Frequency(paper) = quick("e4-paper") else { panic!() };
     assert_eq!(paper.seeds[0].plateaus.len(), 6);
     assert_eq!(paper.seeds[0].figure.len(), 3, "the Fig. 3 schedule holds u three times");
 }
 
 #[test]
-fn e5_our_protocol_switches_gaits_both_ways() {
+fn e5_without_transition_examples_holds_both_gaits_and_the_blended_extension_switches() {
+    // Ours trains on the paper's sequence: one block of each gait, no blend.
+    let c = config("e5");
+    assert!(c.data.morph_s == 0.0 && c.data.repeats == 1, "{:?}", c.data);
     let Outcome::Gaits(r) = quick("e5") else { panic!("e5 is a gaits experiment") };
     assert_eq!(r.teachers.len(), 2);
     for s in &r.seeds {
+        assert!(s.first.passed && s.second.passed && s.first_again.passed, "seed {}: {s:?}", s.model.seed);
+    }
+    let Outcome::Gaits(x) = quick("e5-extension") else { panic!() };
+    for s in &x.seeds {
         assert!(s.passed, "seed {}: {s:?}", s.model.seed);
-        assert!(s.max_jump_smooth <= r.data_step);
+        assert!(s.max_jump_smooth <= x.data_step);
     }
     let Outcome::Gaits(paper) = quick("e5-paper") else { panic!() };
-    assert_eq!(paper.teachers, r.teachers, "both protocols learn the same two cycles");
+    assert_eq!(paper.teachers, r.teachers, "every protocol learns the same two cycles");
+    assert_eq!(x.teachers, r.teachers);
+}
+
+/// Every configuration of `experiments/` (the main ones, the extensions and
+/// what was tried).
+fn all_configs() -> Vec<(String, Config)> {
+    let dir = workspace_root().join("experiments");
+    let mut out = Vec::new();
+    for d in [dir.clone(), dir.join("tried")] {
+        let mut files: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().is_some_and(|x| x == "toml") && p.file_name().is_some_and(|n| n != "families.toml")
+            })
+            .collect();
+        files.sort();
+        for f in files {
+            out.push((f.display().to_string(), Config::load(&f).unwrap_or_else(|e| panic!("{e}"))));
+        }
+    }
+    out
+}
+
+/// A verdict is evidence only when the test uses conditions validation did
+/// not see: for every configuration, no push, plateau, switch, noise seed or
+/// clean scored window of its validation is shared with its test.
+#[test]
+fn validation_never_sees_the_test() {
+    let all = all_configs();
+    assert!(all.len() >= 20, "{} configurations", all.len());
+    for (name, c) in &all {
+        let k = experiment::conditions::conditions(c).unwrap();
+        assert!(!k.validation.is_empty() && !k.test.is_empty(), "{name}: {k:?}");
+        assert!(k.shared().is_empty(), "{name}: validation and test share {:?}", k.shared());
+    }
+    // The rule catches the sharing the report once had: the paper's push inside the validation run.
+    let mut c = config("e1");
+    c.training.orbit.as_mut().unwrap().push = Some(Default::default());
+    assert!(!experiment::conditions::conditions(&c).unwrap().shared().is_empty());
+}
+
+/// What the report says differs from the paper is read from the files, and
+/// names the mechanism where one changes it.
+#[test]
+fn what_differs_from_the_paper_is_read_from_the_files() {
+    let keys = |name: &str| -> Vec<String> {
+        let c = config(name);
+        let paper = Config::load(c.experiment.as_ref().unwrap().paper_config.as_ref().expect("paper_config")).unwrap();
+        experiment::differs::differences(&paper, &c).unwrap().into_iter().map(|d| d.key).collect()
+    };
+    let e4 = keys("e4");
+    assert!(e4.contains(&"training.teacher_noise".to_owned()) && e4.contains(&"reservoir.inputs".to_owned()), "{e4:?}");
+    assert!(
+        !e4.contains(&"reservoir.tempo_input".to_owned()) && !e4.contains(&"reservoir.leak_rate".to_owned()),
+        "{e4:?}"
+    );
+    let x4 = keys("e4-extension");
+    assert!(
+        x4.contains(&"reservoir.tempo_input".to_owned()) && x4.contains(&"reservoir.leak_rate".to_owned()),
+        "{x4:?}"
+    );
+    let x5 = keys("e5-extension");
+    assert!(x5.contains(&"data.morph_s".to_owned()) && x5.contains(&"data.repeats".to_owned()), "{x5:?}");
+    assert!(!keys("e5").contains(&"data.morph_s".to_owned()));
+    // The paper's protocol lists its widened grid.
+    let p = experiment::differs::paper_protocol_differences(&config("e1-paper"));
+    assert_eq!(p.len(), 1);
+    assert_eq!(p[0].describe(), "penalty grid: 10^(1:−0.1:−8) → 10^(5:−0.1:−8)");
+}
+
+/// Every teacher loop lasts the measured stride period within 1 %, and both
+/// hips confirm that the period is one stride.
+#[test]
+fn every_teacher_is_one_stride_long() {
+    for name in ["e1", "e4", "e5", "e6"] {
+        let p = cpg_lab::prepare::prepare(&config(name)).unwrap();
+        for cy in &p.cycles {
+            assert!(
+                (cy.loop_len as f64 / cy.period_frames - 1.0).abs() <= 0.01,
+                "{name} {}: loop {} frames, period {:.2}",
+                cy.label,
+                cy.loop_len,
+                cy.period_frames
+            );
+            let s = cy.stride.as_ref().unwrap_or_else(|| panic!("{name} {}: no hip pair", cy.label));
+            assert!(s.confirmed, "{name} {}: {s:?}", cy.label);
+        }
+    }
 }
 
 #[test]
@@ -142,6 +256,24 @@ fn e6_both_protocols_keep_the_phase_coupling() {
         assert_eq!(r.rows.len(), 22);
         assert_eq!(r.header.n_neurons, 600, "{name}: the quick size");
         assert!(r.worst_drift < 0.05, "{name}: drift {}", r.worst_drift);
+        assert!(r.verdict().passed(), "{name}: {:?}", r.claims);
+        // Deviations are measured to a fraction of a frame, not in whole frames.
+        let p = r.period_frames as f64;
+        assert!(
+            r.rows.iter().any(|j| ((j.deviation_end * p) - (j.deviation_end * p).round()).abs() > 1e-3),
+            "{name}: every deviation is a whole number of frames: {:?}",
+            r.rows.iter().map(|j| j.deviation_end).collect::<Vec<_>>()
+        );
+        assert!(!r.deviation_over_time.is_empty());
+        // The HOAP-2 commands loop: the seam is no larger than a step within the loop.
+        let h0 = r.hoap2.as_ref().expect("E6 maps onto the HOAP-2");
+        assert!(
+            h0.within_limits && h0.loop_seam_rad <= h0.loop_max_step_rad + 1e-9,
+            "{name}: within limits {}, seam {} rad, largest step {} rad",
+            h0.within_limits,
+            h0.loop_seam_rad,
+            h0.loop_max_step_rad
+        );
         assert!(r.median_cycle_nmse < 0.05, "{name}: median NMSE {}", r.median_cycle_nmse);
         let h = r.hoap2.as_ref().expect("E6 maps onto the HOAP-2");
         assert_eq!(h.clamps.joints.len(), 22);

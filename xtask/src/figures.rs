@@ -44,6 +44,8 @@ impl Curve {
 
 /// One panel of a figure.
 pub struct Panel {
+    /// One unit on the x axis is as long as one on the y axis (a path seen from above).
+    pub equal_axes: bool,
     pub title: String,
     pub x_label: String,
     pub y_label: String,
@@ -89,6 +91,20 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
+/// A y range with room above the data for the legend (a fifth of the span),
+/// so that the legend box never covers a curve.
+fn legend_room(y0: f64, y1: f64) -> (f64, f64) {
+    (y0, y1 + 0.25 * (y1 - y0))
+}
+
+/// Ranges widened about their centres so that one unit is as many pixels on
+/// both axes, for a plot area of `(w, h)` pixels (a path seen from above).
+fn equal_axes(x: (f64, f64), y: (f64, f64), (w, h): (f64, f64)) -> ((f64, f64), (f64, f64)) {
+    let per_px = ((x.1 - x.0) / w).max((y.1 - y.0) / h);
+    let (cx, cy) = ((x.0 + x.1) / 2.0, (y.0 + y.1) / 2.0);
+    ((cx - per_px * w / 2.0, cx + per_px * w / 2.0), (cy - per_px * h / 2.0, cy + per_px * h / 2.0))
+}
+
 fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panels: &[Panel], cols: usize) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
@@ -102,6 +118,14 @@ where
         let (x0, x1) = if bars { (x0 - 0.5, x1 + 0.5) } else { (x0, x1) };
         let zero = bars.then_some(0.0);
         let (y0, y1) = range(panel.curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)).chain(zero));
+        let labelled = panel.curves.iter().any(|c| !c.label.is_empty());
+        let (y0, y1) = if labelled { legend_room(y0, y1) } else { (y0, y1) };
+        let ((x0, x1), (y0, y1)) = if panel.equal_axes {
+            let (w, h) = cell.dim_in_pixel();
+            equal_axes((x0, x1), (y0, y1), ((w as f64 - 64.0).max(1.0), (h as f64 - 70.0).max(1.0)))
+        } else {
+            ((x0, x1), (y0, y1))
+        };
         let mut chart = ChartBuilder::on(cell)
             .caption(&panel.title, ("sans-serif", 16))
             .margin(8)
@@ -181,4 +205,24 @@ pub fn save(stem: &Path, panels: &[Panel], cols: usize, size: (u32, u32)) -> any
         draw(&area, panels, cols).with_context(|| format!("drawing {}", svg.display()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_axes_give_a_unit_the_same_length_on_both_axes() {
+        // A path 100 mm wide and 3000 mm long in a 600 × 300 px plot: 10 mm per px on both.
+        let ((x0, x1), (y0, y1)) = equal_axes((0.0, 100.0), (0.0, 3000.0), (600.0, 300.0));
+        assert!(((x1 - x0) / 600.0 - (y1 - y0) / 300.0).abs() < 1e-12);
+        assert!((x0 + x1 - 100.0).abs() < 1e-9 && y0 <= 0.0 && y1 >= 3000.0);
+    }
+
+    #[test]
+    fn the_legend_has_room_above_the_curves() {
+        let (lo, hi) = legend_room(-1.0, 1.0);
+        assert_eq!(lo, -1.0);
+        assert!(hi >= 1.0 + 0.2 * 2.0, "{hi}");
+    }
 }

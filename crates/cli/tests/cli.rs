@@ -213,7 +213,7 @@ fn config_and_model_errors_say_what_is_valid() {
     // A field of the wrong shape names the field, its line and what it takes, in the file's words.
     std::fs::write(
         &bad,
-        fix_paths(base.replace("penalty_log10 = { start = 1, step = 0.1, stop = -8 }", "penalty_log10 = [1, -8]")),
+        fix_paths(base.replace("penalty_log10 = { start = 5, step = 0.1, stop = -8 }", "penalty_log10 = [1, -8]")),
     )
     .unwrap();
     let err = text(&cpg(&["train".as_ref(), "-c".as_ref(), bad.as_os_str()])).1;

@@ -490,8 +490,8 @@ impl JointTrajectory {
         self.values_rad.len() / self.joints.len().max(1)
     }
 
-    /// One joint's column.
-    fn column(values: &[f64], d: usize, j: usize) -> Vec<f64> {
+    /// Column `j` of a frame-major array of `d` joints.
+    pub fn column(values: &[f64], d: usize, j: usize) -> Vec<f64> {
         values.iter().skip(j).step_by(d).copied().collect()
     }
 
@@ -551,6 +551,18 @@ impl JointTrajectory {
     /// with a [`Limiter`] per joint; the velocities and accelerations become
     /// the commanded ones, and the report says what each bound changed.
     pub fn limit(&self, robot: &Robot, acceleration_rad_s2: f64) -> Result<JointTrajectory> {
+        self.limit_with(robot, acceleration_rad_s2, false)
+    }
+
+    /// [`JointTrajectory::limit`] for a trajectory that is played as a loop
+    /// (a whole number of cycles): the limiter runs over it twice and the
+    /// second lap is kept, so that it starts in the state the loop ends in
+    /// and can be repeated without a seam; the report counts the second lap.
+    pub fn limit_loop(&self, robot: &Robot, acceleration_rad_s2: f64) -> Result<JointTrajectory> {
+        self.limit_with(robot, acceleration_rad_s2, true)
+    }
+
+    fn limit_with(&self, robot: &Robot, acceleration_rad_s2: f64, looped: bool) -> Result<JointTrajectory> {
         if !(acceleration_rad_s2.is_finite() && acceleration_rad_s2 > 0.0) {
             return Err(Error::Input(format!(
                 "acceleration bound {acceleration_rad_s2} rad/s²: expected a positive number"
@@ -562,15 +574,30 @@ impl JointTrajectory {
         for (j, name) in self.joints.iter().enumerate() {
             let joint = robot.joint(name)?;
             let mut l = Limiter::new(joint.bounds(acceleration_rad_s2), dt);
+            if n > 0 {
+                // In motion from the first frame, as the trajectory asks.
+                l.start(self.values_rad[j], self.velocities_rad_s[j]);
+            }
+            if looped {
+                for f in 0..n {
+                    l.step(self.values_rad[f * d + j]);
+                }
+                l.counts = Default::default();
+            }
             let r = &mut t.clamps.joints[j];
             for f in 0..n {
                 let k = f * d + j;
                 r.max_velocity_rad_s = r.max_velocity_rad_s.max(self.velocities_rad_s[k].abs());
                 r.max_acceleration_rad_s2 = r.max_acceleration_rad_s2.max(self.accelerations_rad_s2[k].abs());
-                t.values_rad[k] = l.step(self.values_rad[k]);
+                t.values_rad[k] = if f == 0 && !looped {
+                    // The start state is the asked one (clamped).
+                    l.state().0
+                } else {
+                    l.step(self.values_rad[k])
+                };
                 let (_, v, a) = l.state();
                 t.velocities_rad_s[k] = v;
-                t.accelerations_rad_s2[k] = if f == 0 { 0.0 } else { a };
+                t.accelerations_rad_s2[k] = if f == 0 && !looped { 0.0 } else { a };
             }
             r.n_velocity_limited = l.counts.velocity;
             r.n_acceleration_limited = l.counts.acceleration;

@@ -129,6 +129,19 @@ impl Limiter {
         }
     }
 
+    /// Starts at `position_rad` (clamped to the range) moving at
+    /// `velocity_rad_s` (clamped to the speed bound): the state a trajectory
+    /// already in motion begins in, so that its first ticks are not spent
+    /// accelerating from rest. The next [`Limiter::step`] is an ordinary tick.
+    pub fn start(&mut self, position_rad: f64, velocity_rad_s: f64) {
+        let b = self.bounds;
+        self.position_rad = position_rad.clamp(b.lower_rad, b.upper_rad);
+        self.velocity_rad_s = velocity_rad_s.clamp(-b.velocity_rad_s, b.velocity_rad_s);
+        self.acceleration_rad_s2 = 0.0;
+        self.last_target_rad = self.position_rad;
+        self.started = true;
+    }
+
     /// The commanded angle, velocity and acceleration after the last tick.
     pub fn state(&self) -> (f64, f64, f64) {
         (self.position_rad, self.velocity_rad_s, self.acceleration_rad_s2)
@@ -260,5 +273,25 @@ mod tests {
             assert!((p - target).abs() < if k < 50 { 0.01 } else { 1e-9 }, "tick {k}: {p} vs {target}");
         }
         assert_eq!((l.counts.position, l.counts.velocity), (0, 0));
+    }
+
+    #[test]
+    fn a_limiter_started_in_motion_follows_at_once() {
+        let b = Bounds { lower_rad: -3.0, upper_rad: 3.0, velocity_rad_s: 5.0, acceleration_rad_s2: 100.0 };
+        let dt = 0.001;
+        // 1 Hz, 0.5 rad: up to 3.1 rad/s and 19.7 rad/s², inside every bound.
+        let target = |k: usize| 0.5 * (2.0 * std::f64::consts::PI * k as f64 * dt).sin();
+        let speed0 = 0.5 * 2.0 * std::f64::consts::PI;
+        let mut rest = Limiter::new(b, dt);
+        let mut moving = Limiter::new(b, dt);
+        moving.start(target(0), speed0);
+        let (mut lag_rest, mut lag_moving) = (0.0f64, 0.0f64);
+        for k in 1..200 {
+            lag_rest = lag_rest.max((rest.step(target(k)) - target(k)).abs());
+            lag_moving = lag_moving.max((moving.step(target(k)) - target(k)).abs());
+        }
+        assert!(lag_moving < 1e-9, "in motion from the start: lag {lag_moving}");
+        assert!(lag_rest > 1e-3 && rest.counts.acceleration > 0, "from rest it must catch up: lag {lag_rest}");
+        assert_eq!(moving.counts.acceleration, 0);
     }
 }

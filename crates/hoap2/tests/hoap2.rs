@@ -234,3 +234,55 @@ fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
     assert!((g.left_right_phase - 0.5).abs() < 0.1, "{g:?}");
     assert!(g.excursion_m > 0.03 && g.lift_m > 0.005, "{g:?}");
 }
+
+/// A periodic trajectory limited as a loop starts in the state it ends in:
+/// played again and again, it has no seam larger than a step within it.
+#[test]
+fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
+    let r = robot();
+    let joints = vec!["lleg_joint_4".to_owned(), "lleg_joint_5".to_owned()];
+    let n = 1000;
+    // 1 Hz at 1 kHz: the ankle asks for 8 rad/s at its fastest, beyond the 5 rad/s limit.
+    let w = 2.0 * std::f64::consts::PI;
+    let (mut q, mut v, mut a) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..n {
+        let t = k as f64 / 1000.0;
+        for (amp, mid) in [(0.5, 0.7), (1.3, 0.0)] {
+            q.push(mid + amp * (w * t).sin());
+            v.push(amp * w * (w * t).cos());
+            a.push(-amp * w * w * (w * t).sin());
+        }
+    }
+    let clamps = cpg_hoap2::ClampReport {
+        joints: joints
+            .iter()
+            .map(|j| cpg_hoap2::JointClamp { joint: j.clone(), n_frames: n, ..Default::default() })
+            .collect(),
+    };
+    let t = JointTrajectory {
+        joints,
+        values_rad: q,
+        velocities_rad_s: v,
+        accelerations_rad_s2: a,
+        rate_hz: 1000.0,
+        clamps,
+    };
+    let l = t.limit_loop(&r, cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2).unwrap();
+    let d = 2;
+    let step = l
+        .values_rad
+        .chunks_exact(d)
+        .collect::<Vec<_>>()
+        .windows(2)
+        .fold(0.0f64, |m, w| w[0].iter().zip(w[1]).fold(m, |m, (x, y)| m.max((y - x).abs())));
+    for j in 0..d {
+        let seam = (l.values_rad[j] - l.values_rad[(n - 1) * d + j]).abs();
+        assert!(seam <= step + 1e-12, "joint {j}: seam {seam} rad, largest step {step} rad");
+        let vseam = (l.velocities_rad_s[j] - l.velocities_rad_s[(n - 1) * d + j]).abs();
+        assert!(
+            vseam <= cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 * 0.001 + 1e-9,
+            "joint {j}: velocity jumps {vseam} rad/s"
+        );
+    }
+    assert!(l.clamps.joints[1].n_velocity_limited > 0, "the ankle is held back by its speed limit");
+}

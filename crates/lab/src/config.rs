@@ -261,8 +261,12 @@ pub struct OrbitSection {
     /// Scoring starts this long after a setting is reached, seconds.
     #[serde(default = "default_settle")]
     pub settle_s: f64,
-    /// Teachers visited, by index (default: all, in order).
+    /// Teachers visited, by index (default: all, in order); with `rates`,
+    /// indices into `rates`.
     pub sequence: Option<Vec<usize>>,
+    /// With `[data.tempo]`: the rates the validation run visits instead of
+    /// the model's teachers (so that it need not hold any rate a test holds).
+    pub rates: Option<Vec<f64>>,
     /// A push during the first stay.
     pub push: Option<PushSection>,
 }
@@ -309,6 +313,9 @@ impl ExperimentSection {
                 Err((format!("experiment.{f}"), format!("{v}; expected {lo} to {hi} s")))
             }
         };
+        if !PROTOCOLS.contains(&self.protocol.as_str()) {
+            return fail("protocol", format!("'{}'; valid: {}", self.protocol, PROTOCOLS.join(", ")));
+        }
         if !(1..=1000).contains(&self.seeds) {
             return fail("seeds", format!("{}; expected 1 to 1000", self.seeds));
         }
@@ -369,6 +376,10 @@ pub struct OutputSection {
     pub model: PathBuf,
 }
 
+/// The values of `experiment.protocol`: the paper's, ours (the paper's
+/// mechanism with our choices), an extension of the mechanism, a variant tried.
+pub const PROTOCOLS: [&str; 4] = ["paper", "ours", "extension", "tried"];
+
 /// `[experiment]`: the test protocol the report runs on this configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -377,10 +388,13 @@ pub struct ExperimentSection {
     pub id: String,
     /// Title for the report.
     pub title: String,
-    /// `paper` or `ours`.
+    /// `paper`, `ours`, `extension` or `tried`.
     pub protocol: String,
     /// One line on what this configuration tries (for the report's table of what was tried).
     pub method: Option<String>,
+    /// The configuration of the same experiment with the paper's protocol,
+    /// which the report compares this one with (what differs, setting by setting).
+    pub paper_config: Option<PathBuf>,
     /// Reservoir seeds `seed, seed + 1, …` tried.
     #[serde(default = "default_seeds")]
     pub seeds: u64,
@@ -674,6 +688,9 @@ impl Config {
             fix(&mut r.urdf);
             fix(&mut r.map);
         }
+        if let Some(p) = c.experiment.as_mut().and_then(|e| e.paper_config.as_mut()) {
+            fix(p);
+        }
         c.check(file)?;
         Ok(c)
     }
@@ -705,6 +722,9 @@ impl Config {
         for r in c.robots_mut() {
             rel(&mut r.urdf);
             rel(&mut r.map);
+        }
+        if let Some(p) = c.experiment.as_mut().and_then(|e| e.paper_config.as_mut()) {
+            rel(p);
         }
         toml::to_string(&c).map_err(|e| self.error("", format!("cannot be written as TOML: {e}")))
     }
@@ -869,6 +889,14 @@ impl Config {
                 for (name, v) in [("stay_s", o.stay_s), ("ramp_s", o.ramp_s), ("settle_s", o.settle_s)] {
                     if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
                         return Err(bad(&format!("training.orbit.{name}"), format!("{v}; expected 0 to 600 s")));
+                    }
+                }
+                if let Some(r) = &o.rates {
+                    if d.tempo.is_none() {
+                        return Err(bad("training.orbit.rates", "needs [data.tempo] (rates of its loop)".into()));
+                    }
+                    if r.is_empty() || r.len() > 100 || r.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 100.0)) {
+                        return Err(bad("training.orbit.rates", "needs 1 to 100 rates above 0 and at most 100".into()));
                     }
                 }
                 if o.settle_s >= o.stay_s {

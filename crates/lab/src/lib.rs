@@ -20,7 +20,11 @@
 //!   `cpg_view::Scene` (rendered as HTML or GIF by `cpg-view`).
 //! - [`experiment`]: E1–E6 of wyffels & Schrauwen (2009) and the comparison
 //!   of generator families (Vakulenko et al. 2017), each returning typed
-//!   results that derive `Serialize`.
+//!   results that derive `Serialize`, with their claims ([`experiment::claim`]:
+//!   the paper's words, what was measured, the rule and the verdict) and
+//!   the conditions validation and test each used ([`experiment::conditions`]).
+//! - [`stats`]: the aggregates over seeds (median, range, a count with its
+//!   95 % interval), defined once.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), cpg_lab::Error> {
@@ -45,6 +49,7 @@ pub mod memory;
 pub mod prepare;
 pub mod scene;
 pub mod schedule;
+pub mod stats;
 pub mod stream;
 pub mod train;
 pub mod tune;

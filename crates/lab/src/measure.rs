@@ -17,8 +17,10 @@
 //!   quarter period, in standard deviations of the teacher cycle; to the
 //!   teacher's orbit at the best phase, to the unperturbed twin at the same
 //!   time. Recovered at the start of the first window after the release
-//!   from which a whole period of windows stays below the threshold
-//!   ([`RECOVERY_THRESHOLD_SD`]); 0 s means at once.
+//!   from which every window until the end of the run stays below the
+//!   threshold ([`RECOVERY_THRESHOLD_SD`]), at least a whole period of them;
+//!   0 s means at once. A run that comes back and leaves again has not
+//!   recovered.
 
 use cpg_mocap::cycle::{estimate_period, half_range, lag, orbit_distance};
 use cpg_reservoir::batch::{Controls, Run};
@@ -171,17 +173,18 @@ pub struct Recovery {
     pub phase_shift_cycles: f64,
 }
 
-/// Time from `release` until `dist` (indexed by window start) stays below
-/// `threshold` for `hold` windows.
+/// Time from `release` until `dist` (indexed by window start; windows that
+/// run past the end are infinite) is below `threshold` for good: from the
+/// start of the first window after which every window up to the last whole
+/// one stays below it, provided at least `hold` windows do. A run that
+/// returns and leaves again has not recovered.
 fn settle(dist: &[f64], release: usize, threshold: f64, hold: usize, rate_hz: f64) -> Option<f64> {
-    let mut run = 0;
-    for (k, v) in dist.iter().enumerate().skip(release) {
-        run = if *v < threshold { run + 1 } else { 0 };
-        if run >= hold.max(1) {
-            return Some((k + 1 - run - release) as f64 / rate_hz);
-        }
+    let last = dist.iter().rposition(|v| v.is_finite())?;
+    let mut from = last + 1;
+    while from > release && dist[from - 1] < threshold {
+        from -= 1;
     }
-    None
+    (from <= last && last + 1 - from >= hold.max(1)).then(|| (from - release) as f64 / rate_hz)
 }
 
 /// Compares a perturbed run `b` with its unperturbed twin `a` (both `T × d`,
@@ -406,4 +409,21 @@ pub fn judge(model: &TrainedCpg, steps: usize, controls: Option<&ControlSchedule
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_that_returns_and_leaves_again_has_not_recovered() {
+        let inf = f64::INFINITY;
+        // Windows: bad, good for 5, bad again, good for 4 to the end, then windows past the end.
+        let d = [1.0, 0.1, 0.1, 0.1, 0.1, 0.1, 1.0, 0.1, 0.1, 0.1, 0.1, inf, inf];
+        assert_eq!(settle(&d, 0, 0.25, 3, 1.0), Some(7.0), "back for good from window 7");
+        assert_eq!(settle(&d, 0, 0.25, 5, 1.0), None, "the last good stretch is shorter than 5");
+        let leaves = [1.0, 0.1, 0.1, 0.1, 0.1, 1.0, inf];
+        assert_eq!(settle(&leaves, 0, 0.25, 2, 1.0), None, "it left again before the end");
+        assert_eq!(settle(&[0.1, 0.1, 0.1, inf], 0, 0.25, 1, 1.0), Some(0.0), "at once");
+    }
 }

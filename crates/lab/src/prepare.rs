@@ -34,6 +34,55 @@ pub struct SegmentCycle {
     pub loop_len: usize,
     /// Seam jump beyond a typical step, standard deviations.
     pub seam_excess: f64,
+    /// Whether the period is one stride, from both legs (`None`: the motion
+    /// has no left/right hip pair to check with).
+    pub stride: Option<StrideCheck>,
+}
+
+/// Whether a gait period is one stride: both hips have it as their own
+/// period, and the right one moves half a cycle behind the left (each leg
+/// swings once per stride). A period that were half a stride or two strides
+/// would fail one of the two.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct StrideCheck {
+    /// The left hip's channel.
+    pub left: String,
+    /// The right hip's channel.
+    pub right: String,
+    /// The left hip's own period, frames.
+    pub left_period_frames: f64,
+    /// The right hip's own period, frames.
+    pub right_period_frames: f64,
+    /// How far the right hip trails the left, cycles of the segment's period, in (−0.5, 0.5].
+    pub right_lag_cycles: f64,
+    /// Both periods within 3 % of the segment's and the lag within 0.1 cycle of a half.
+    pub confirmed: bool,
+}
+
+/// Hip channels that say whether a period is a stride, by naming convention (CMU ASF, BVH).
+const HIP_PAIRS: [(&str, &str); 3] =
+    [("lfemur.rx", "rfemur.rx"), ("LeftUpLeg.rx", "RightUpLeg.rx"), ("LeftHip.rx", "RightHip.rx")];
+
+/// Checks the period `p` (frames) of motion `m` with its hips, searching periods in `[lo, hi]` frames.
+pub fn stride_check(m: &Motion, p: f64, lo: usize, hi: usize) -> Option<StrideCheck> {
+    let names = m.channel_names();
+    let (l, r) = HIP_PAIRS.iter().find(|(l, r)| names.iter().any(|n| n == l) && names.iter().any(|n| n == r))?;
+    let (a, b) = (m.column(l).ok()?, m.column(r).ok()?);
+    let t = a.len();
+    let hi = hi.min(t - t / 4);
+    let lp = estimate_period(&a, lo.max(2), hi)?;
+    let rp = estimate_period(&b, lo.max(2), hi)?;
+    let shift = cpg_mocap::cycle::lag(&a, &b, (p / 2.0).ceil() as usize + 1) / p;
+    let wrapped = 0.5 - (0.5 - shift).rem_euclid(1.0);
+    let close = |x: f64| (x / p - 1.0).abs() < 0.03;
+    Some(StrideCheck {
+        left: l.to_string(),
+        right: r.to_string(),
+        left_period_frames: lp,
+        right_period_frames: rp,
+        right_lag_cycles: wrapped,
+        confirmed: close(lp) && close(rp) && (wrapped.abs() - 0.5).abs() < 0.1,
+    })
 }
 
 /// Training data and what the model keeps of it.
@@ -266,7 +315,12 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
 
 /// One seamless loop per segment (normalised, rotated to start at the
 /// reference channel's maximum when blocks are morphed), and what was found.
-fn loops(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<(Vec<Vec<f64>>, Vec<SegmentCycle>)> {
+fn loops(
+    c: &Config,
+    r: &Read,
+    recorded: &[Motion],
+    notes: &mut Vec<String>,
+) -> Result<(Vec<Vec<f64>>, Vec<SegmentCycle>)> {
     let d_sec = &c.data;
     let d = r.channels.len();
     let rate = d_sec.rate_hz;
@@ -308,12 +362,25 @@ fn loops(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<(Vec<Vec<f64>>
                 d_sec.max_seam_excess
             )));
         }
+        let stride = recorded.get(k).and_then(|m| stride_check(m, p, lo, hi));
         if 2.0 * p > (t - t / 4) as f64 && d_sec.loop_cycles == 1 {
-            notes.push(format!(
-                "segment {} ({label}): {t} frames hold {:.1} periods of {p:.1}, too few to rule out that the true stride is twice as long; check the loop in a figure",
-                k + 1,
-                t as f64 / p
-            ));
+            notes.push(match &stride {
+                Some(s) if s.confirmed => format!(
+                    "segment {} ({label}): {t} frames hold {:.1} periods of {p:.1}, too few to see a second stride in the rhythm alone; both legs confirm one stride ({} has its own period {:.1} frames, {} {:.1}, and the two are {:.2} cycle apart)",
+                    k + 1,
+                    t as f64 / p,
+                    s.left,
+                    s.left_period_frames,
+                    s.right,
+                    s.right_period_frames,
+                    s.right_lag_cycles.abs()
+                ),
+                _ => format!(
+                    "segment {} ({label}): {t} frames hold {:.1} periods of {p:.1}, too few to rule out that the true stride is twice as long, and no left/right hip pair confirms it; check the loop in a figure",
+                    k + 1,
+                    t as f64 / p
+                ),
+            });
         }
         let cycle = x[lp.start * d..(lp.start + lp.len) * d].to_vec();
         loops.push(if d_sec.morph_s > 0.0 { rotate_to_max(&cycle, d) } else { cycle });
@@ -325,6 +392,7 @@ fn loops(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<(Vec<Vec<f64>>
             loop_start: lp.start,
             loop_len: lp.len,
             seam_excess: lp.seam_excess,
+            stride,
         });
     }
     Ok((loops, cycles))
@@ -486,7 +554,7 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
     let (seqs, cycles, teachers) = if c.data.loop_cycles == 0 {
         (recorded_sequences(c, &r, &mut notes)?, Vec::new(), Vec::new())
     } else {
-        let (loops, cycles) = loops(c, &r, &mut notes)?;
+        let (loops, cycles) = loops(c, &r, &rec.parts, &mut notes)?;
         let (seqs, teachers) = match &c.data.tempo {
             Some(tp) => tempo_sequences(c, tp, &loops[0], d)?,
             None => {
@@ -509,7 +577,19 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
         let o =
             c.training.orbit.as_ref().ok_or_else(|| Error::Data("score = \"orbit\" needs [training.orbit]".into()))?;
         let w = &seqs.warmup.controls;
-        orbit_run(o, &teachers, d, u, c.data.rate_hz, &w[w.len().saturating_sub(u)..])?
+        let visited = match (&o.rates, &c.data.tempo, teachers.first()) {
+            (Some(rates), Some(tp), Some(base)) => rates
+                .iter()
+                .map(|&r| Teacher {
+                    label: format!("{} = {r}", tp.control),
+                    controls: vec![r],
+                    cycle: base.cycle.clone(),
+                    rate: r,
+                })
+                .collect(),
+            _ => teachers.clone(),
+        };
+        orbit_run(o, &visited, d, u, c.data.rate_hz, &w[w.len().saturating_sub(u)..])?
     } else {
         (seqs.nmse_validation, Scoring::default())
     };
@@ -627,4 +707,34 @@ fn orbit_run(
         None => Vec::new(),
     };
     Ok((Sequence { outputs: outs, controls: ctls }, Scoring { score: Score::Orbit(stays), holds }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cpg_mocap::Channel;
+
+    fn hips(right_lag_frames: f64, right_period: f64) -> Motion {
+        let channels = vec![Channel::parse("lfemur.rx").unwrap(), Channel::parse("rfemur.rx").unwrap()];
+        let values: Vec<f64> = (0..400)
+            .flat_map(|k| {
+                let k = k as f64;
+                let w = 2.0 * PI / 120.0;
+                [20.0 * (w * k).sin(), 20.0 * (2.0 * PI / right_period * (k - right_lag_frames)).sin()]
+            })
+            .collect();
+        Motion::new(channels, values, 120.0).unwrap()
+    }
+
+    #[test]
+    fn both_hips_confirm_a_stride_and_refuse_a_half_one() {
+        let walk = stride_check(&hips(60.0, 120.0), 120.0, 60, 250).unwrap();
+        assert!(walk.confirmed && (walk.right_lag_cycles.abs() - 0.5).abs() < 0.02, "{walk:?}");
+        // The legs in phase: 120 frames would be half a stride of a hopping gait.
+        let hop = stride_check(&hips(0.0, 120.0), 120.0, 60, 250).unwrap();
+        assert!(!hop.confirmed, "{hop:?}");
+        // A right hip with another period.
+        let odd = stride_check(&hips(60.0, 100.0), 120.0, 60, 250).unwrap();
+        assert!(!odd.confirmed, "{odd:?}");
+    }
 }

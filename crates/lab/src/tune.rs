@@ -195,6 +195,7 @@ pub fn apply(base: &Config, k: &Knobs) -> Config {
             ramp_s: 1.0,
             settle_s: 6.5,
             sequence: None,
+            rates: None,
             push: Some(PushSection::default()),
         });
     } else {

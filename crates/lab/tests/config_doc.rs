@@ -121,11 +121,16 @@ fn a_configuration_written_back_reads_the_same() {
         |c: &Config| c.experiment.as_ref().and_then(|e| e.gaits.as_ref()).and_then(|g| g.robot.clone()).unwrap();
     assert_eq!(canon(&robot(&again).urdf), canon(&robot(&c).urdf));
     assert_eq!(canon(&robot(&again).map), canon(&robot(&c).map));
+    let paper = |c: &Config| c.experiment.as_ref().and_then(|e| e.paper_config.clone()).unwrap();
+    assert_eq!(canon(&paper(&again)), canon(&paper(&c)));
     let (mut a, mut b) = (again.clone(), c.clone());
     for x in [&mut a, &mut b] {
         if let Some(r) = x.experiment.as_mut().and_then(|e| e.gaits.as_mut()).and_then(|g| g.robot.as_mut()) {
             r.urdf = Default::default();
             r.map = Default::default();
+        }
+        if let Some(e) = x.experiment.as_mut() {
+            e.paper_config = None;
         }
         x.source = Default::default();
         x.data.skeleton = Default::default();

@@ -66,11 +66,17 @@ pub struct Loop {
     pub seam_excess: f64,
 }
 
+/// Largest relative difference between a loop's length and the whole number
+/// of periods it stands for.
+pub const LOOP_LENGTH_TOLERANCE: f64 = 0.01;
+
 /// Finds the loop of `n_cycles` periods whose repetition is smoothest.
 ///
 /// `x` is frame-major with `n_channels` channels; `period` is the signal's
-/// period in frames. Lengths within ±10 % of `n_cycles · period` and every start
-/// that fits are tried. The cost is the jump from the loop's last frame to its
+/// period in frames. Lengths within [`LOOP_LENGTH_TOLERANCE`] of `n_cycles ·
+/// period` (the nearest whole number when no whole number is that close) and
+/// every start that fits are tried, so that the loop lasts as long as the
+/// measured rhythm and a CPG that learns it keeps the recording's tempo. The cost is the jump from the loop's last frame to its
 /// first, compared with the jump from the last frame to the frame that really
 /// follows it, and the same one frame earlier (so slope matters too), each
 /// channel scaled by its standard deviation. `None` when no loop fits.
@@ -80,8 +86,15 @@ pub fn best_loop(x: &[f64], n_channels: usize, period: f64, n_cycles: usize) -> 
     }
     let t = x.len() / n_channels;
     let target = period * n_cycles as f64;
-    let lo = ((target * 0.9).floor() as usize).max(2);
-    let hi = (target * 1.1).ceil() as usize;
+    let (mut lo, mut hi) = (
+        (target * (1.0 - LOOP_LENGTH_TOLERANCE)).ceil() as usize,
+        (target * (1.0 + LOOP_LENGTH_TOLERANCE)).floor() as usize,
+    );
+    if lo > hi {
+        (lo, hi) = (target.round() as usize, target.round() as usize);
+    }
+    let lo = lo.max(2);
+    let hi = hi.max(lo);
     let scale: Vec<f64> = (0..n_channels)
         .map(|c| {
             let col: Vec<f64> = x.iter().skip(c).step_by(n_channels).copied().collect();
@@ -131,10 +144,33 @@ pub fn tile(cycle: &[f64], n_channels: usize, len: usize, offset: usize) -> Vec<
 /// shift of the cycle that minimises the mean squared error and that error's
 /// NMSE (MSE divided by the cycle's variance, averaged over channels).
 pub fn align_to_cycle(model: &[f64], cycle: &[f64], n_channels: usize) -> (usize, f64) {
-    let t = model.len() / n_channels;
-    let p = cycle.len() / n_channels;
+    let errors = shift_errors(model, cycle, n_channels);
+    errors.iter().enumerate().fold((0, f64::INFINITY), |b, (k, &e)| if e < b.1 { (k, e) } else { b })
+}
+
+/// [`align_to_cycle`] to a fraction of a frame: the best whole shift moved
+/// by the vertex of the parabola through its error and its two neighbours'
+/// (the cycle wraps), within half a frame. Returns the shift in frames, in
+/// `[0, p)`, and the error at the best whole shift.
+pub fn align_to_cycle_fine(model: &[f64], cycle: &[f64], n_channels: usize) -> (f64, f64) {
+    let errors = shift_errors(model, cycle, n_channels);
+    let p = errors.len();
+    let (k, e1) = errors.iter().enumerate().fold((0, f64::INFINITY), |b, (k, &e)| if e < b.1 { (k, e) } else { b });
+    if p < 3 || !e1.is_finite() {
+        return (k as f64, e1);
+    }
+    let (e0, e2) = (errors[(k + p - 1) % p], errors[(k + 1) % p]);
+    let den = e0 - 2.0 * e1 + e2;
+    let frac = if den > 0.0 { (0.5 * (e0 - e2) / den).clamp(-0.5, 0.5) } else { 0.0 };
+    ((k as f64 + frac).rem_euclid(p as f64), e1)
+}
+
+/// The NMSE of `model` against the cycle at every whole shift.
+fn shift_errors(model: &[f64], cycle: &[f64], n_channels: usize) -> Vec<f64> {
+    let t = model.len() / n_channels.max(1);
+    let p = cycle.len() / n_channels.max(1);
     if t == 0 || p == 0 {
-        return (0, f64::INFINITY);
+        return vec![f64::INFINITY; p.max(1)];
     }
     let var: Vec<f64> = (0..n_channels)
         .map(|c| {
@@ -143,22 +179,19 @@ pub fn align_to_cycle(model: &[f64], cycle: &[f64], n_channels: usize) -> (usize
             (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / col.len() as f64).max(f64::MIN_POSITIVE)
         })
         .collect();
-    let mut best = (0, f64::INFINITY);
-    for shift in 0..p {
-        let mut err = 0.0;
-        for k in 0..t {
-            let q = (shift + k) % p;
-            for c in 0..n_channels {
-                let d = model[k * n_channels + c] - cycle[q * n_channels + c];
-                err += d * d / var[c];
+    (0..p)
+        .map(|shift| {
+            let mut err = 0.0;
+            for k in 0..t {
+                let q = (shift + k) % p;
+                for c in 0..n_channels {
+                    let d = model[k * n_channels + c] - cycle[q * n_channels + c];
+                    err += d * d / var[c];
+                }
             }
-        }
-        let nmse = err / (t * n_channels) as f64;
-        if nmse < best.1 {
-            best = (shift, nmse);
-        }
-    }
-    best
+            err / (t * n_channels) as f64
+        })
+        .collect()
 }
 
 /// Distance of a signal to a periodic orbit, over time: for each `t ≥ window − 1`,
@@ -302,5 +335,32 @@ mod tests {
         let (shift, nmse) = align_to_cycle(&model, &cycle, 1);
         assert_eq!(shift, 30);
         assert!(nmse < 1e-20);
+    }
+
+    #[test]
+    fn fine_alignment_finds_a_fraction_of_a_frame() {
+        let p = 120.0;
+        let cycle = sine(120, p, 0.0);
+        for shift in [0.0, 0.3, 17.6, 119.8] {
+            let model: Vec<f64> =
+                (0..360).map(|k| (2.0 * std::f64::consts::PI * (k as f64 + shift) / p).sin()).collect();
+            let (s, _) = align_to_cycle_fine(&model, &cycle, 1);
+            let d = (s - shift).rem_euclid(p);
+            assert!(d.min(p - d) < 0.02, "shift {shift}: found {s}");
+        }
+    }
+
+    #[test]
+    fn a_loop_lasts_the_measured_period_within_one_percent() {
+        // Strides of 100 frames, but the smoothest seam would be at 106 (a slower stride).
+        let x: Vec<f64> = (0..600)
+            .map(|k| {
+                let k = k as f64;
+                let slow = if (200.0..306.0).contains(&k) { 106.0 } else { 100.0 };
+                (2.0 * std::f64::consts::PI * k / slow).sin()
+            })
+            .collect();
+        let l = best_loop(&x, 1, 100.0, 1).unwrap();
+        assert!((99..=101).contains(&l.len), "loop of {} frames for a period of 100", l.len);
     }
 }

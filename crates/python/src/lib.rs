@@ -680,12 +680,13 @@ fn train(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<Model> {
 }
 
 /// The configuration `fit` starts from: our protocol of experiments/e1.toml
-/// (e5.toml's sequence for several segments).
+/// (e5-extension.toml's sequence for several segments), whose validation
+/// push and switches are not the ones `Model.evaluate` tests.
 fn fit_defaults(segments: usize) -> toml::Table {
     let text = if segments > 1 {
-        "[data]\nloop_cycles = 1\nsamples_per_segment = 1000\nrepeats = 3\nmorph_s = 1\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 6\nramp_s = 1\nsettle_s = 1\n"
+        "[data]\nloop_cycles = 1\nsamples_per_segment = 1000\nrepeats = 3\nmorph_s = 1\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 5\nramp_s = 2\nsettle_s = 1\n"
     } else {
-        "[data]\nloop_cycles = 1\nsamples_per_segment = 2200\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 10\nsettle_s = 6.5\npush = { at_s = 2, hold_s = 0.05, above_max = 2 }\n"
+        "[data]\nloop_cycles = 1\nsamples_per_segment = 2200\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 10\nsettle_s = 6.5\npush = { at_s = 1.3, hold_s = 0.1, above_max = 1 }\n"
     };
     text.parse().unwrap_or_default()
 }

@@ -26,10 +26,8 @@ impl Md {
     }
 }
 
-/// A penalty: `1.26e-2`, `1.00e1`.
-pub fn pen(x: f64) -> String {
-    if x == 0.0 { "0".into() } else { format!("{x:.2e}") }
-}
+use cpg_lab::experiment::claim::{Decision, Source, Value, Verdict};
+pub use cpg_lab::experiment::pen;
 
 /// A time in seconds, or `never`.
 pub fn secs(x: Option<f64>) -> String {
@@ -41,25 +39,53 @@ pub fn frames(x: Option<f64>) -> String {
     x.map_or("decayed".into(), |v| format!("{v:.2}"))
 }
 
-/// `reproduced` / `not reproduced`.
-pub fn verdict(ok: bool) -> &'static str {
-    if ok { "reproduced" } else { "not reproduced" }
+/// `reproduced`, `not reproduced`, `not run`; `(at the limit)` when a
+/// comparison that decided it was closer than the printed digits.
+pub fn verdict(v: &Verdict) -> String {
+    let word = match v.decision {
+        Decision::Reproduced => "reproduced",
+        Decision::NotReproduced => "not reproduced",
+        Decision::NotRun => "not run",
+    };
+    if v.at_limit { format!("{word} (at the limit)") } else { word.to_owned() }
+}
+
+/// A measured value as printed: counts with their 95 % interval, spreads
+/// as median (range; n), numbers with their unit.
+pub fn value(v: &Value) -> String {
+    let unit = |u: &str| if u.is_empty() { String::new() } else { format!(" {u}") };
+    match v {
+        Value::Count(p) => {
+            format!("{} of {} (95 % interval {:.0}–{:.0} %)", p.k, p.n, 100.0 * p.low, 100.0 * p.high)
+        }
+        Value::Spread { spread: s, unit: u, digits } => {
+            if s.n == 0 {
+                "—".into()
+            } else if s.n == 1 {
+                format!("{:.*}{} (n = 1)", digits, s.median, unit(u))
+            } else {
+                format!("{:.*}{} ({:.*}–{:.*}; n = {})", digits, s.median, unit(u), digits, s.min, digits, s.max, s.n)
+            }
+        }
+        Value::Number { value, unit: u, digits } => format!("{value:.*}{}", digits, unit(u)),
+        Value::Text { text } => text.clone(),
+    }
+}
+
+/// The paper's words (quoted, with where) or our reading (marked inferred).
+pub fn sources(s: &[Source]) -> String {
+    s.iter()
+        .map(|x| match x {
+            Source::Quote(q) => format!("“{}” ({})", q.text, q.place),
+            Source::Inferred { text } => format!("inferred: {text}"),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// `yes` / `no`.
 pub fn yes(ok: bool) -> &'static str {
     if ok { "yes" } else { "no" }
-}
-
-/// The median of `v` (NaN when empty).
-pub fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
-/// Lowest and highest of `v`.
-pub fn span(v: impl IntoIterator<Item = f64>) -> (f64, f64) {
-    v.into_iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
 }
 
 /// A markdown anchor of a heading text (GitHub's rule, enough for our headings).

@@ -32,9 +32,15 @@ pub struct Args {
     /// (2017), or everything (including the variants in experiments/tried).
     #[arg(long, value_enum, default_value_t = Part::All)]
     experiment: Part,
-    /// Where the report goes [default: report, or report/families for --experiment families].
+    /// Where the report goes [default: report, report/families for
+    /// --experiment families, report/configs with --config].
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Run only these experiment configurations (any `[experiment]` file,
+    /// e.g. a copy of experiments/e4.toml with one setting changed) and
+    /// report them alone, in the order given.
+    #[arg(long = "config", value_name = "FILE")]
+    configs: Vec<PathBuf>,
 }
 
 /// Which part of the evaluation.
@@ -49,8 +55,9 @@ pub enum Part {
     All,
 }
 
-/// The reservoir experiments, in report order: the paper's protocol, then ours.
-pub const RESERVOIR: [&str; 8] = ["e1-paper", "e1", "e4-paper", "e4", "e5-paper", "e5", "e6-paper", "e6"];
+/// The reservoir experiments, in report order: the paper's protocol, ours, then our extensions.
+pub const RESERVOIR: [&str; 10] =
+    ["e1-paper", "e1", "e4-paper", "e4", "e4-extension", "e5-paper", "e5", "e5-extension", "e6-paper", "e6"];
 
 struct Bars;
 
@@ -151,9 +158,14 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     let opts = Options { quick: args.quick };
     let mut times = Vec::new();
     let mut main = Vec::new();
-    if args.experiment != Part::Families {
+    if !args.configs.is_empty() || args.experiment != Part::Families {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
-        let paths: Vec<PathBuf> = RESERVOIR.iter().map(|name| dir.join(format!("{name}.toml"))).collect();
+        let paths: Vec<PathBuf> = if args.configs.is_empty() {
+            RESERVOIR.iter().map(|name| dir.join(format!("{name}.toml"))).collect()
+        } else {
+            let cwd = std::env::current_dir().context("the current directory")?;
+            args.configs.iter().map(|p| if p.is_absolute() { p.clone() } else { cwd.join(p) }).collect()
+        };
         let configs = paths.iter().map(|p| Config::load(p)).collect::<Result<Vec<_>, _>>()?;
         let mut i = 0;
         while i < paths.len() {
@@ -167,6 +179,9 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
                 i += 1;
             }
         }
+    }
+    if !args.configs.is_empty() {
+        return Ok(Results { main, tried: Vec::new(), families: None, times });
     }
     let families = if args.experiment != Part::Reservoir {
         eprintln!("generator families (Vakulenko et al. 2017)");
@@ -199,33 +214,206 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     Ok(Results { main, tried, families, times })
 }
 
-fn render(args: &Args, r: &Results, dir: &Path, total_s: f64) -> anyhow::Result<String> {
+/// Where the papers' texts are (`$CPG_PAPERS_DIR`, else `shared/papers` beside the checkout).
+fn papers_dir() -> PathBuf {
+    std::env::var_os("CPG_PAPERS_DIR").map(PathBuf::from).unwrap_or_else(|| crate::root().join("../shared/papers"))
+}
+
+/// Whitespace collapsed to single spaces.
+fn squash(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// Checks every quote of `claims` against the paper's text: an error names
+/// the quote the paper does not hold; `Ok(None)` when the texts are not here.
+fn check_quotes<'a>(claims: impl Iterator<Item = &'a cpg_lab::experiment::Claim>) -> anyhow::Result<Option<usize>> {
+    let dir = papers_dir();
+    if !dir.is_dir() {
+        return Ok(None);
+    }
+    let mut texts = std::collections::HashMap::new();
+    let mut seen = std::collections::HashSet::new();
+    for c in claims {
+        for s in &c.sources {
+            let cpg_lab::experiment::claim::Source::Quote(q) = s else { continue };
+            let file = dir.join(q.paper.file_name());
+            let text = match texts.get(&file) {
+                Some(t) => t,
+                None => {
+                    let t =
+                        squash(&std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?);
+                    texts.entry(file.clone()).or_insert(t)
+                }
+            };
+            if !text.contains(&squash(q.text)) {
+                anyhow::bail!(
+                    "the report quotes {} ({}) as saying \"{}\", which {} does not hold",
+                    q.paper.cite(),
+                    q.place,
+                    q.text,
+                    file.display()
+                );
+            }
+            seen.insert(q.text);
+        }
+    }
+    Ok(Some(seen.len()))
+}
+
+/// When, where and from what this report was made.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RunInfo {
+    /// The checkout's commit, with `+` when it has uncommitted changes.
+    pub commit: String,
+    /// When the run finished, UTC (ISO 8601).
+    pub date_utc: String,
+    /// The processor's model name.
+    pub cpu: String,
+    /// Cores available to the run.
+    pub cores: usize,
+    /// The widest vector instructions the kernels use here.
+    pub simd: String,
+    /// Threads of the run's pool.
+    pub threads: usize,
+    /// Seconds per configuration (or pair run together) and for the rendering.
+    pub seconds: Vec<(String, f64)>,
+    /// Seconds in all.
+    pub total_s: f64,
+    /// Quotes checked against the papers' texts (`None`: the texts were not found).
+    pub quotes_checked: Option<usize>,
+}
+
+fn git(args: &[&str]) -> Option<String> {
+    let out = std::process::Command::new("git").args(args).current_dir(crate::root()).output().ok()?;
+    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+}
+
+/// Days since 1970-01-01 as a civil date (Hinnant's algorithm).
+fn civil(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+fn now_utc() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (y, m, d) = civil(secs.div_euclid(86_400));
+    let t = secs.rem_euclid(86_400);
+    format!("{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z", t / 3600, t % 3600 / 60, t % 60)
+}
+
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_owned())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_owned())
+}
+
+fn simd_level() -> String {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return "AVX-512".into();
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            return "AVX2 + FMA".into();
+        }
+    }
+    "scalar".into()
+}
+
+fn run_info(times: &[(String, f64)], total_s: f64, quotes_checked: Option<usize>) -> RunInfo {
+    let commit = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    RunInfo {
+        commit: if dirty { format!("{commit}+") } else { commit },
+        date_utc: now_utc(),
+        cpu: cpu_model(),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        simd: simd_level(),
+        threads: rayon::current_num_threads(),
+        seconds: times.to_vec(),
+        total_s,
+        quotes_checked,
+    }
+}
+
+/// What a reader needs to read the tables.
+const GLOSSARY: &[(&str, &str)] = &[
+    (
+        "z",
+        "a channel in normalised units: its mean subtracted, divided by its standard deviation over the training data (the paper's normalisation).",
+    ),
+    ("σ", "a standard deviation of the teacher's cycle (pushes and distances are given in it)."),
+    ("teacher", "the recorded gait cycle a model is judged against, played at the rate its control setting asks for."),
+    (
+        "seam",
+        "where a loop cut from a recording joins its own start; its excess is the jump there beyond a typical step between frames, in σ.",
+    ),
+    (
+        "orbit score",
+        "our validation score: clean free runs at each visited control setting, each scored by the NMSE against its teacher's cycle at the best phase.",
+    ),
+    (
+        "NMSE",
+        "mean squared error divided by the target's variance (1 is the error of a constant output at the target's mean).",
+    ),
+    (
+        "twin",
+        "the same model run from the same state without the push: back on the twin means back in phase, not only on the orbit.",
+    ),
+    (
+        "back on the orbit",
+        "within 0.25 σ of the teacher's cycle at the best phase over quarter-period windows, from some window until the end of the run.",
+    ),
+    (
+        "penalty",
+        "the ridge regression's regularisation; each configuration searches a grid of them and validation chooses one.",
+    ),
+    (
+        "validation / test",
+        "validation chooses the penalty; the test judges the model. A verdict is evidence only when the test uses conditions validation did not see (each section lists both).",
+    ),
+    ("k of n (95 % interval)", "seeds that met a rule, with the Wilson score interval of the rate at 95 %."),
+    (
+        "median (range; n)",
+        "the median over seeds (the mean of the two middle values for an even count), the lowest and highest, and how many seeds had a value.",
+    ),
+    (
+        "at the limit",
+        "a verdict that a comparison closer than the printed digits decided: the last digit could flip it.",
+    ),
+];
+
+fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Result<String> {
     let mut md = Md::default();
     md.line("# cpg: the two papers, reproduced and measured");
     md.blank();
-    md.line(format!("Generated by `cargo xtask evaluate{}{}`. Every number and verdict below was computed by that run from the configurations in `experiments/` (the same files `cpg train --config` reads); the papers' words are quoted from `shared/papers/`.", if args.quick { " --quick" } else { "" }, match args.experiment { Part::All => String::new(), p => format!(" --experiment {}", format!("{p:?}").to_lowercase()) }));
+    md.line(format!("Generated by `cargo xtask evaluate{}{}`. Every number and verdict below was computed by that run from the configurations in `experiments/` (the same files `cpg train --config` reads); {}", if args.quick { " --quick" } else { "" }, match args.experiment { Part::All => String::new(), p => format!(" --experiment {}", format!("{p:?}").to_lowercase()) },
+        match info.quotes_checked {
+            Some(n) => format!("each of the {n} passages of the papers quoted below was found in `shared/papers/` by this run."),
+            None => format!("the papers' texts were not found at `{}`, so the quotations were not checked by this run.", papers_dir().display()),
+        }));
     md.blank();
-    let heading = |kind: fn(&Outcome) -> bool| {
-        r.main.iter().find(|(_, o)| kind(o)).map(|(_, o)| reservoir::heading(o)).unwrap_or_default()
-    };
-    let headings = summary::Headings {
-        stability: heading(|o| matches!(o, Outcome::Stability(_))),
-        frequency: heading(|o| matches!(o, Outcome::Frequency(_))),
-        gaits: heading(|o| matches!(o, Outcome::Gaits(_))),
-        coupling: heading(|o| matches!(o, Outcome::Coupling(_))),
-        families: families::HEADING.into(),
-    };
+    let headings = summary::Headings { families: families::HEADING.into() };
     summary::summary(&mut md, &r.main, r.families.as_ref(), &headings);
-    if !r.main.is_empty() {
-        md.line("## The paper's protocol and ours");
-        md.blank();
-        md.line("Each reservoir experiment runs twice over the same seeds: with the paper's protocol (the penalty chosen by the NMSE of a noisy free run) and with ours. Ours changes only how the penalty is chosen, plus, where one protocol fails outright, the training sequence (E5) and one input (E4). The table of what we tried shows the variants between them.");
-        md.blank();
-        for (_, o) in &r.main {
-            md.line(format!("- {} {}", o.header().id, reservoir::protocol_line(o.header())));
-        }
-        md.blank();
-    }
+    md.line("## How to read this report");
+    md.blank();
+    md.line("Each reservoir experiment runs over the same reservoir seeds with the paper's protocol (the penalty chosen by the NMSE of a noisy free run), with ours (the paper's mechanism, our validation and training choices) and, where the paper's mechanism fails, with our extension of it. Each section lists what every configuration changes against the paper, the conditions its validation and its test used, and the rules of its verdicts.");
+    md.blank();
+    let rows: Vec<Vec<String>> = GLOSSARY.iter().map(|(a, b)| vec![format!("**{a}**"), (*b).to_owned()]).collect();
+    md.table(&["term", "meaning"], "ll", &rows);
     if !r.tried.is_empty() {
         let mut all: Vec<(String, Outcome)> = r.main.clone();
         all.extend(r.tried.iter().cloned());
@@ -256,11 +444,17 @@ fn render(args: &Args, r: &Results, dir: &Path, total_s: f64) -> anyhow::Result<
     if let Some(f) = &r.families {
         families::section(&mut md, f, dir)?;
     }
-    md.line("## Time per configuration");
+    md.line("## This run");
     md.blank();
-    let rows: Vec<Vec<String>> = r.times.iter().map(|(n, s)| vec![format!("`{n}`"), format!("{s:.1} s")]).collect();
+    md.line(format!(
+        "Commit `{}`, finished {} on {} ({} cores, {} kernels, {} threads).",
+        info.commit, info.date_utc, info.cpu, info.cores, info.simd, info.threads
+    ));
+    md.blank();
+    let rows: Vec<Vec<String>> =
+        info.seconds.iter().map(|(n, s)| vec![format!("`{n}`"), format!("{s:.1} s")]).collect();
     md.table(&["configuration", "wall time"], "lr", &rows);
-    md.line(format!("Total time of this evaluation: {total_s:.0} s on {} threads.", rayon::current_num_threads()));
+    md.line(format!("Total time of this evaluation: {:.0} s.", info.total_s));
     md.blank();
     md.line("The data used in this project was obtained from mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.");
     Ok(md.0)
@@ -280,17 +474,15 @@ fn export_amc(c: &experiment::coupling::CouplingResult, dir: &Path) -> anyhow::R
     Ok(())
 }
 
-fn metrics(r: &Results) -> anyhow::Result<String> {
+fn metrics(r: &Results, info: &RunInfo) -> anyhow::Result<String> {
     let map = |v: &[(String, Outcome)]| -> serde_json::Map<String, serde_json::Value> {
         v.iter().map(|(n, o)| (n.clone(), serde_json::to_value(o).unwrap_or(serde_json::Value::Null))).collect()
     };
-    let times: serde_json::Map<String, serde_json::Value> =
-        r.times.iter().map(|(n, s)| (n.clone(), serde_json::json!(s))).collect();
     Ok(serde_json::to_string_pretty(&serde_json::json!({
+        "run": info,
         "experiments": map(&r.main),
         "tried": map(&r.tried),
         "families": r.families,
-        "seconds": times,
     }))?)
 }
 
@@ -298,18 +490,36 @@ fn metrics(r: &Results) -> anyhow::Result<String> {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let start = Instant::now();
     crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the experiments need")?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(if args.experiment == Part::Families { "report/families" } else { "report" }));
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(if !args.configs.is_empty() {
+            "report/configs"
+        } else if args.experiment == Part::Families {
+            "report/families"
+        } else {
+            "report"
+        })
+    });
     let out = if out.is_absolute() { out } else { crate::root().join(out) };
     let tmp = out.with_extension("partial");
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-    let results = run_all_configs(args)?;
-    let md = render(args, &results, &tmp, start.elapsed().as_secs_f64())?;
+    let mut results = run_all_configs(args)?;
+    let claims = results
+        .main
+        .iter()
+        .chain(&results.tried)
+        .flat_map(|(_, o)| o.claims())
+        .chain(results.families.iter().flat_map(|f| f.claims.iter()));
+    let quotes = check_quotes(claims)?;
+    let rendering = Instant::now();
+    // The figures and pages are written while rendering; its time is measured on a first pass.
+    let probe = run_info(&results.times, start.elapsed().as_secs_f64(), quotes);
+    let _ = render(args, &results, &tmp, &probe)?;
+    results.times.push(("rendering the report and its figures".into(), rendering.elapsed().as_secs_f64()));
+    let info = run_info(&results.times, start.elapsed().as_secs_f64(), quotes);
+    let md = render(args, &results, &tmp, &info)?;
     std::fs::write(tmp.join("REPORT.md"), md)?;
-    std::fs::write(tmp.join("metrics.json"), metrics(&results)?)?;
+    std::fs::write(tmp.join("metrics.json"), metrics(&results, &info)?)?;
     if out.is_dir() {
         std::fs::remove_dir_all(&out).with_context(|| format!("replacing {}", out.display()))?;
     }

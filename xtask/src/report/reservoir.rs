@@ -1,18 +1,20 @@
-//! Sections E1–E6: one renderer per result type, the paper's protocol and
-//! ours side by side.
+//! Sections E1–E6 and the HOAP-2 commands: every protocol of an experiment
+//! side by side. Every aggregate comes from the results (`claims`, `table`);
+//! this module formats and draws.
 
 use std::path::Path;
 
+use cpg_lab::experiment::claim::{Claim, Measure};
 use cpg_lab::experiment::coupling::CouplingResult;
 use cpg_lab::experiment::frequency::FrequencyResult;
 use cpg_lab::experiment::gaits::GaitsResult;
 use cpg_lab::experiment::stability::StabilityResult;
-use cpg_lab::experiment::{Header, Verdict};
+use cpg_lab::experiment::{Header, SeedModel};
 
-use super::fmt::{Md, frames, median, pen, secs, span, verdict, yes};
+use super::fmt::{Md, frames, pen, secs, sources, value, verdict, yes};
 use crate::figures::{Curve, Look, Panel, save};
 
-/// `fig2` for our protocol, `fig2-paper` for the paper's.
+/// `fig2` for our protocol, `fig2-paper` for the paper's, `fig2-extension` for an extension.
 pub fn stem(base: &str, h: &Header) -> String {
     if h.protocol == "ours" { base.to_owned() } else { format!("{base}-{}", h.protocol) }
 }
@@ -66,25 +68,30 @@ fn section_heading(h: &Header, fig: &str) -> String {
     format!("{}: {} ({fig})", h.id, h.title)
 }
 
-/// "our protocol", "the paper's protocol".
-pub fn protocol_name_pub(h: &Header) -> String {
-    protocol_name(h)
+/// "the paper's protocol", "our protocol", "our extension", "tried".
+pub fn protocol_name(h: &Header) -> String {
+    match h.protocol.as_str() {
+        "ours" => "our protocol".into(),
+        "paper" => "the paper's protocol".into(),
+        "extension" => "our extension".into(),
+        other => other.to_owned(),
+    }
 }
 
-fn protocol_name(h: &Header) -> String {
-    if h.protocol == "ours" { "our protocol".into() } else { format!("the {}'s protocol", h.protocol) }
-}
-
-/// One sentence on how a protocol chose its penalty.
+/// One sentence on how a configuration chose its penalty.
 pub fn protocol_line(h: &Header) -> String {
     let (n, a, b) = h.penalty_grid;
     let grid = format!("{n} penalties 10^{a} … 10^{b}");
     let how = match h.score.as_str() {
         "nmse" => format!(
-            "validation by the NMSE of a noisy free run (state-noise variance {}) against the teacher, step by step",
-            h.noise_variance
+            "validation by the NMSE of a free run against the teacher, step by step{}",
+            if h.noise_variance > 0.0 {
+                format!(", under state noise of variance {}", h.noise_variance)
+            } else {
+                String::new()
+            }
         ),
-        _ => "validation by the orbit score: clean free runs at each teacher's control setting, scored by the phase-aligned NMSE against that teacher's cycle; the largest penalty within 2× the best score".into(),
+        _ => "validation by the orbit score: clean free runs at settings of the controls, each scored by the phase-aligned NMSE against its cycle".into(),
     };
     format!(
         "**{}** (`{}`): {} neurons; {grid}; {how}.",
@@ -99,12 +106,166 @@ fn capital(s: &str) -> String {
     c.next().map(|f| f.to_uppercase().collect::<String>() + c.as_str()).unwrap_or_default()
 }
 
-fn vcell(v: Verdict) -> String {
-    verdict(v.passed).to_owned()
-}
-
 fn pts(y: &[f64], t0: f64, rate: f64) -> Vec<(f64, f64)> {
     y.iter().enumerate().map(|(k, v)| (t0 + k as f64 / rate, *v)).collect()
+}
+
+/// What each configuration is, what it changes against the paper, the
+/// conditions its validation and its test used, and its warnings.
+fn protocols(md: &mut Md, hs: &[&Header]) {
+    for h in hs {
+        md.line(protocol_line(h));
+        md.blank();
+        if !h.differs.is_empty() {
+            md.line(format!("What differs from the paper ({}):", protocol_name(h)));
+            md.blank();
+            for d in &h.differs {
+                md.line(format!("- {}", d.describe()));
+            }
+            md.blank();
+        } else if h.protocol == "paper" {
+            md.line("Nothing the paper states differs.");
+            md.blank();
+        }
+        let list = |v: &[cpg_lab::experiment::conditions::Condition]| {
+            if v.is_empty() { "none".to_owned() } else { v.iter().map(|c| c.describe()).collect::<Vec<_>>().join("; ") }
+        };
+        let shared = h.conditions.shared();
+        md.line(format!(
+            "Validation ran under: {}. The test uses: {}. Shared by both: {}.",
+            list(&h.conditions.validation),
+            list(&h.conditions.test),
+            if shared.is_empty() {
+                "none".to_owned()
+            } else {
+                shared
+                    .iter()
+                    .map(|(v, t)| format!("{} / {}", v.describe(), t.describe()))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            }
+        ));
+        md.blank();
+        for w in &h.warnings {
+            md.line(format!("Warning ({}): {w}", protocol_name(h)));
+            md.blank();
+        }
+    }
+    if let Some(first) = hs.first() {
+        for n in &first.notes {
+            md.line(format!("Note on the data: {n}."));
+            md.blank();
+        }
+    }
+}
+
+/// One column of a side-by-side table: a configuration's claims and other aggregates.
+struct Column<'a> {
+    header: &'a Header,
+    claims: &'a [Claim],
+    table: &'a [Measure],
+}
+
+/// The claims and aggregates of every configuration of one experiment, side by side.
+fn side_by_side(md: &mut Md, cols: &[Column<'_>]) {
+    let Some(first) = cols.first() else { return };
+    let mut head = vec!["claim and measure".to_owned()];
+    head.extend(cols.iter().map(|c| protocol_name(c.header)));
+    let head: Vec<&str> = head.iter().map(String::as_str).collect();
+    let mut rows = Vec::new();
+    for (i, cl) in first.claims.iter().enumerate() {
+        for (j, m) in cl.measured.iter().enumerate() {
+            let mut v = vec![format!("{}: {}", cl.experiment, m.label)];
+            v.extend(
+                cols.iter()
+                    .map(|c| c.claims.get(i).and_then(|x| x.measured.get(j)).map_or("—".into(), |m| value(&m.value))),
+            );
+            rows.push(v);
+        }
+        let mut v = vec![format!("**{} verdict** ({})", cl.experiment, cl.claim)];
+        v.extend(cols.iter().map(|c| c.claims.get(i).map_or("—".into(), |x| format!("**{}**", verdict(&x.verdict)))));
+        rows.push(v);
+    }
+    for (j, m) in first.table.iter().enumerate() {
+        let mut v = vec![m.label.clone()];
+        v.extend(cols.iter().map(|c| c.table.get(j).map_or("—".into(), |m| value(&m.value))));
+        rows.push(v);
+    }
+    md.table(&head, &format!("l{}", "r".repeat(cols.len())), &rows);
+    for cl in first.claims {
+        md.line(format!("The paper, {}: {}", cl.experiment, sources(&cl.sources)));
+        md.blank();
+    }
+    let rules: Vec<String> = first.claims.iter().map(|c| format!("{}: {}.", c.experiment, c.verdict.rule)).collect();
+    md.line(format!("Rules. {}", rules.join(" ")));
+    md.blank();
+}
+
+/// The validation curves of every seed of every configuration of one experiment.
+fn validation_figure(
+    md: &mut Md,
+    name: &str,
+    cols: &[(&Header, Vec<&SeedModel>)],
+    dir: Option<&Path>,
+) -> anyhow::Result<()> {
+    if let Some(dir) = dir {
+        let panels: Vec<Panel> = cols
+            .iter()
+            .map(|(h, seeds)| {
+                let mut curves: Vec<Curve> = seeds
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| {
+                        Curve::new(
+                            Look::Model,
+                            if k == 0 { "a seed's scores" } else { "" },
+                            s.curve
+                                .iter()
+                                .filter(|(_, v)| v.is_finite() && *v > 0.0)
+                                .map(|(p, v)| (p.log10(), v.log10()))
+                                .collect(),
+                        )
+                    })
+                    .collect();
+                let (_, start, _) = h.penalty_grid;
+                if start > cpg_lab::experiment::differs::PAPER_PENALTY_GRID.start {
+                    let ys: Vec<f64> = seeds
+                        .iter()
+                        .flat_map(|s| s.curve.iter().map(|(_, v)| *v))
+                        .filter(|v| v.is_finite() && *v > 0.0)
+                        .map(f64::log10)
+                        .collect();
+                    let (lo, hi) =
+                        ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+                    let x = cpg_lab::experiment::differs::PAPER_PENALTY_GRID.start;
+                    curves.push(Curve::new(Look::Control, "the paper's grid ends", vec![(x, lo), (x, hi)]));
+                }
+                curves.push(Curve::new(
+                    Look::Marks,
+                    "chosen",
+                    seeds
+                        .iter()
+                        .filter_map(|s| {
+                            s.curve.iter().find(|(p, _)| *p == s.penalty).map(|(p, v)| (p.log10(), v.log10()))
+                        })
+                        .collect(),
+                ));
+                Panel {
+                    equal_axes: false,
+                    title: format!("{} ({})", h.id, protocol_name(h)),
+                    x_label: "log10 penalty".into(),
+                    y_label: format!("log10 validation score ({})", h.score),
+                    curves,
+                }
+            })
+            .collect();
+        save(&dir.join(name), &panels, cols.len().min(3), (520 * cols.len().min(3) as u32, 420))?;
+    }
+    md.line(format!(
+        "![Validation curves: each seed's score against the penalty, the chosen penalty marked]({name}.png)"
+    ));
+    md.blank();
+    Ok(())
 }
 
 /// E1–E3.
@@ -112,79 +273,24 @@ pub fn stability(md: &mut Md, rs: &[&StabilityResult], dir: Option<&Path>) -> an
     let Some(first) = rs.first() else { return Ok(()) };
     md.line(format!("## {}", section_heading(&first.header, "Fig. 2")));
     md.blank();
-    for r in rs {
-        md.line(protocol_line(&r.header));
-        md.blank();
-    }
-    let cy = first.header.cycles.first();
-    if let Some(c) = cy {
-        md.line(format!(
-            "Teacher: one seamless cycle of {} (`{}`): {} frames from frame {}, seam {:.3} σ beyond a typical step; the period found by autocorrelation is {:.2} frames.",
-            c.label, first.channel, c.loop_len, c.loop_start, c.seam_excess, c.period_frames
-        ));
+    protocols(md, &rs.iter().map(|r| &r.header).collect::<Vec<_>>());
+    if let Some(c) = first.header.cycles.first() {
+        md.line(teacher_line(c, &first.channel));
         md.blank();
     }
     for r in rs {
         md.line(format!("![Figure 2, {}]({}.png)", protocol_name(&r.header), stem("fig2", &r.header)));
         md.blank();
     }
-    let cols: Vec<String> = rs.iter().map(|r| protocol_name(&r.header)).collect();
-    let mut head = vec!["claim and measure", "the paper"];
-    head.extend(cols.iter().map(String::as_str));
-    let row = |label: &str, paper: &str, f: &dyn Fn(&StabilityResult) -> String| -> Vec<String> {
-        let mut v = vec![label.to_owned(), paper.to_owned()];
-        v.extend(rs.iter().map(|r| f(r)));
-        v
-    };
-    let n = first.seeds.len();
-    let rows = vec![
-        row(
-            &format!("E1: NMSE of the first {} free-run samples, median over {n} seeds (range)", first.first_samples),
-            "\"little difference\" (figure only)",
-            &|r| {
-                let (lo, hi) = span(r.seeds.iter().map(|s| s.first_nmse));
-                format!("{:.4} ({lo:.4}–{hi:.4})", r.median_first_nmse())
-            },
-        ),
-        row("E1 verdict", "", &|r| vcell(r.e1_verdict())),
-        row(&format!("E2: seeds accurate after {:.0} s", first.long_run_s), "one run shown, \"stable\"", &|r| {
-            format!("{} of {}", r.n_accurate(), r.seeds.len())
-        }),
-        row("E2: seeds converged (the rhythm no longer changes, accurate or not)", "—", &|r| {
-            format!("{} of {}", r.n_converged(), r.seeds.len())
-        }),
-        row("E2 verdict", "", &|r| vcell(r.e2_verdict())),
-        row("E3: seeds back on the teacher's orbit after the push; median time", "\"recovers well\"", &|r| {
-            format!(
-                "{} of {}; {}",
-                r.n_recovered(),
-                r.seeds.len(),
-                secs(Some(median(r.seeds.iter().filter_map(|s| s.recovery.orbit_s).collect()))).replace("NaN s", "—")
-            )
-        }),
-        row("E3: seeds back on the unperturbed twin (in phase); median time", "—", &|r| {
-            let v: Vec<f64> = r.seeds.iter().filter_map(|s| s.recovery.twin_s).collect();
-            format!(
-                "{} of {}; {}",
-                v.len(),
-                r.seeds.len(),
-                if v.is_empty() { "—".into() } else { secs(Some(median(v))) }
-            )
-        }),
-        row("E3 verdict", "", &|r| vcell(r.e3_verdict())),
-        row("chosen penalty, lowest – highest", "searched in 10^(1:−0.1:−8)", &|r| {
-            let (lo, hi) = span(r.seeds.iter().map(|s| s.model.penalty));
-            format!("{} – {}", pen(lo), pen(hi))
-        }),
-        row("warning: seeds whose penalty is at the grid's edge", "—", &|r| {
-            format!("{} of {}", r.seeds.iter().filter(|s| s.model.penalty_at_edge).count(), r.seeds.len())
-        }),
-    ];
-    md.table(&head, &"llrr".chars().take(2 + rs.len()).collect::<String>(), &rows);
-    md.line(format!("Rules. E1: {}. E2: {}; a seed is {}. E3: {}; the push holds the fed-back output at the cycle's maximum + {} σ ({:.1} in the channel's units) for {} steps ({:.3} s) from {:.2} s. Distances, windows and times are defined once in `cpg_lab::measure`: RMS over quarter-period windows in teacher standard deviations, below 0.25 for a whole period of windows; the time is the start of the first such window after the release, so 0 s means at once.",
-        first.e1_verdict().rule, first.e2_verdict().rule, cpg_lab::experiment::stability::RULE, first.e3_verdict().rule,
-        first.push.above_max, first.push.held_units.first().copied().unwrap_or(f64::NAN), first.push.hold_steps, first.push.hold_s, first.push.at_s));
+    let cols: Vec<Column<'_>> =
+        rs.iter().map(|r| Column { header: &r.header, claims: &r.claims, table: &r.table }).collect();
+    side_by_side(md, &cols);
+    md.line(format!("Definitions. A seed is {}. The push holds the fed-back output at the cycle's maximum + {} σ ({:.1} in the channel's units) for {} steps ({:.3} s) from {:.2} s. Distances, windows and times are defined once in `cpg_lab::measure`: RMS over quarter-period windows in teacher standard deviations, below 0.25 from some window until the end of the run; the time is the start of that window after the release, so 0 s means at once.",
+        cpg_lab::experiment::stability::RULE, first.push.above_max, first.push.held_units.first().copied().unwrap_or(f64::NAN), first.push.hold_steps, first.push.hold_s, first.push.at_s));
     md.blank();
+    let vc: Vec<(&Header, Vec<&SeedModel>)> =
+        rs.iter().map(|r| (&r.header, r.seeds.iter().map(|s| &s.model).collect())).collect();
+    validation_figure(md, "fig_validation_e1", &vc, dir)?;
     for r in rs {
         seeds_table(md, r);
         if let Some(dir) = dir {
@@ -192,6 +298,34 @@ pub fn stability(md: &mut Md, rs: &[&StabilityResult], dir: Option<&Path>) -> an
         }
     }
     Ok(())
+}
+
+/// The loop a teacher was cut as, against the period measured, and the stride check.
+fn teacher_line(c: &cpg_lab::prepare::SegmentCycle, channel: &str) -> String {
+    let off = 100.0 * (c.loop_len as f64 / c.period_frames - 1.0);
+    let stride = match &c.stride {
+        Some(s) if s.confirmed => format!(
+            " Both hips confirm one stride: {} has the period {:.1} frames and {} {:.1}, {:.2} cycle apart (a half cycle is the left and right legs in turn).",
+            s.left,
+            s.left_period_frames,
+            s.right,
+            s.right_period_frames,
+            s.right_lag_cycles.abs()
+        ),
+        Some(s) => format!(
+            " The hips do not confirm one stride ({} {:.1} frames, {} {:.1}, {:.2} cycle apart).",
+            s.left,
+            s.left_period_frames,
+            s.right,
+            s.right_period_frames,
+            s.right_lag_cycles.abs()
+        ),
+        None => String::new(),
+    };
+    format!(
+        "Teacher: a loop of {} frames of {} (`{channel}`) from frame {}, {off:+.1} % of the period the autocorrelation finds ({:.2} frames); its seam jumps {:.3} σ beyond a typical step.{stride}",
+        c.loop_len, c.label, c.loop_start, c.period_frames, c.seam_excess
+    )
 }
 
 fn seeds_table(md: &mut Md, r: &StabilityResult) {
@@ -215,7 +349,7 @@ fn seeds_table(md: &mut Md, r: &StabilityResult) {
                 format!("{:.3}", st.amplitude_ratio(0)),
                 format!("{:.4}", st.end.aligned_nmse),
                 yes(st.converged).into(),
-                yes(st.accurate).into(),
+                format!("{}{}", yes(st.accurate), if s.accurate.at_limit { " (at the limit)" } else { "" }),
                 secs(s.recovery.orbit_s),
                 secs(s.recovery.twin_s),
                 format!("{:+.3}", s.recovery.phase_shift_cycles),
@@ -240,13 +374,6 @@ fn seeds_table(md: &mut Md, r: &StabilityResult) {
         "rrrrrrrllrrr",
         &rows,
     );
-    let c: Vec<String> = r.curve.iter().step_by(10).map(|(p, v)| format!("{}: {v:.3}", pen(*p))).collect();
-    md.line(format!(
-        "Validation curve of seed {} (every 10th penalty): {}.",
-        r.seeds.first().map_or(0, |s| s.model.seed),
-        c.join(", ")
-    ));
-    md.blank();
 }
 
 fn figure2(r: &StabilityResult, dir: &Path) -> anyhow::Result<()> {
@@ -259,6 +386,7 @@ fn figure2(r: &StabilityResult, dir: &Path) -> anyhow::Result<()> {
         &dir.join(stem("fig2", &r.header)),
         &[
             Panel {
+                equal_axes: false,
                 title: format!("E1: free run from the trained state ({})", protocol_name(&r.header)),
                 x_label: "time (s)".into(),
                 y_label: format!("{} ({units})", r.channel),
@@ -268,6 +396,7 @@ fn figure2(r: &StabilityResult, dir: &Path) -> anyhow::Result<()> {
                 ],
             },
             Panel {
+                equal_axes: false,
                 title: format!("E2: after {:.0} s of free run, teacher at its best phase", f.end_start_s),
                 x_label: "time (s)".into(),
                 y_label: format!("{} ({units})", r.channel),
@@ -277,6 +406,7 @@ fn figure2(r: &StabilityResult, dir: &Path) -> anyhow::Result<()> {
                 ],
             },
             Panel {
+                equal_axes: false,
                 title: format!(
                     "E3: output held at {held:.1} {units} for {:.0} ms after {:.0} s",
                     1000.0 * r.push.hold_s,
@@ -286,7 +416,7 @@ fn figure2(r: &StabilityResult, dir: &Path) -> anyhow::Result<()> {
                 y_label: format!("{} ({units})", r.channel),
                 curves: vec![
                     Curve::new(Look::Teacher, "unperturbed twin", pts(&f.free, 0.0, rate)),
-                    Curve::new(Look::Model, "pushed run", pts(&f.pushed, 0.0, rate)),
+                    Curve::new(Look::Model, "pushed run (the held value while held)", pts(&f.pushed, 0.0, rate)),
                     Curve::new(Look::Held, "held value", vec![(hold_t0, held), (hold_t0 + r.push.hold_s, held)]),
                 ],
             },
@@ -301,95 +431,32 @@ pub fn frequency(md: &mut Md, rs: &[&FrequencyResult], dir: Option<&Path>) -> an
     let Some(first) = rs.first() else { return Ok(()) };
     md.line(format!("## {}", section_heading(&first.header, "Fig. 3")));
     md.blank();
-    for r in rs {
-        md.line(protocol_line(&r.header));
-        md.blank();
-    }
-    md.line(format!("Both are trained on the femur cycle replayed at a rate u(t) that drifts smoothly in [1, 6] (the configuration's `[data.tempo]`). Test: u held at {} for {} s each with {}-s cosine ramps between; each plateau is judged over its second half against the cycle played u times as fast. The teacher's frequency at u = 1 is f0 = {:.3} Hz.",
+    protocols(md, &rs.iter().map(|r| &r.header).collect::<Vec<_>>());
+    md.line(format!("Every configuration is trained on the femur cycle replayed at a rate u(t) that drifts smoothly in [1, 6] (the configuration's `[data.tempo]`). Test: u held at {} for {} s each with {}-s cosine ramps between; each plateau is judged over its second half against the cycle played u times as fast. The teacher's frequency at u = 1 is f0 = {:.3} Hz. A plateau's frequency counts as 0 when the output decayed or showed no rhythm.",
         first.plateaus.iter().map(|u| format!("{u}")).collect::<Vec<_>>().join(", "), first.hold_s, first.ramp_s, first.f0_hz));
     md.blank();
     for r in rs {
         md.line(format!("![Figure 3, {}]({}.png)", protocol_name(&r.header), stem("fig3", &r.header)));
         md.blank();
     }
-    let mut head = vec!["claim and measure".to_owned(), "the paper".to_owned()];
-    head.extend(rs.iter().map(|r| protocol_name(&r.header)));
-    let head: Vec<&str> = head.iter().map(String::as_str).collect();
-    let mut rows = vec![{
-        let mut v = vec![
-            "seeds passing every plateau".into(),
-            "up to 6× (\"maximal increase of frequency by six times\")".into(),
-        ];
-        v.extend(rs.iter().map(|r| format!("{} of {}", r.n_passed(), r.seeds.len())));
-        v
-    }];
-    rows.push({
-        let mut v = vec!["verdict".into(), String::new()];
-        v.extend(rs.iter().map(|r| vcell(r.verdict())));
-        v
-    });
-    for (k, &u) in first.plateaus.iter().enumerate() {
-        let mut v = vec![
-            format!("u = {u}: frequency / (u·f0), median (range); amplitude / teacher, median"),
-            if k == 0 { "a smooth change of frequency (figure)".into() } else { String::new() },
-        ];
-        v.extend(rs.iter().map(|r| {
-            let fr: Vec<f64> = r
-                .seeds
-                .iter()
-                .map(|s| s.plateaus[k].measured_hz.map_or(0.0, |h| h / s.plateaus[k].target_hz))
-                .collect();
-            let (lo, hi) = span(fr.iter().copied());
-            let am = median(r.seeds.iter().map(|s| s.plateaus[k].amplitude_ratio).collect());
-            format!("{:.3} ({lo:.3}–{hi:.3}); {am:.2}", median(fr))
-        }));
-        rows.push(v);
+    let cols: Vec<Column<'_>> =
+        rs.iter().map(|r| Column { header: &r.header, claims: &r.claims, table: &r.table }).collect();
+    side_by_side(md, &cols);
+    if let Some(dir) = dir {
+        frequency_against_u(rs, dir)?;
     }
-    md.table(&head, &"llrr".chars().take(2 + rs.len()).collect::<String>(), &rows);
-    md.line(format!(
-        "Rule: {}. A plateau's frequency is 0 in the table when the output decayed or showed no rhythm.",
-        first.verdict().rule
-    ));
+    md.line("![Frequency against u: every seed at every plateau, each configuration in its panel; the line is u·f0](fig3_frequency.png)");
     md.blank();
-    // The paper's own test schedule (Fig. 3), judged on its held stretches.
-    let n_windows = first.seeds.first().map_or(0, |s| s.figure.len());
-    if n_windows > 0 {
-        md.line("The paper's Fig. 3 schedule (u from high to low and back), judged on the second half of each stretch where u is held, by the same rule:");
-        md.blank();
-        let mut head = vec!["held stretch".to_owned()];
-        head.extend(rs.iter().map(|r| {
-            format!("{}: seeds passing; frequency / (u·f0), amplitude ratio (medians)", protocol_name(&r.header))
-        }));
-        let head: Vec<&str> = head.iter().map(String::as_str).collect();
-        let rows: Vec<Vec<String>> = (0..n_windows)
-            .map(|k| {
-                let w = &first.seeds[0].figure[k];
-                let mut v = vec![format!("u = {} from {:.1} to {:.1} s", w.u, w.window_s[0], w.window_s[1])];
-                v.extend(rs.iter().map(|r| {
-                    let ok = r.seeds.iter().filter(|s| s.figure.get(k).is_some_and(|p| p.passed)).count();
-                    let fr = median(
-                        r.seeds
-                            .iter()
-                            .filter_map(|s| s.figure.get(k))
-                            .map(|p| p.measured_hz.map_or(0.0, |h| h / p.target_hz))
-                            .collect(),
-                    );
-                    let am =
-                        median(r.seeds.iter().filter_map(|s| s.figure.get(k)).map(|p| p.amplitude_ratio).collect());
-                    format!("{ok} of {}; {fr:.3}, {am:.2}", r.seeds.len())
-                }));
-                v
-            })
-            .collect();
-        md.table(&head, &format!("l{}", "r".repeat(rs.len())), &rows);
-    }
+    let vc: Vec<(&Header, Vec<&SeedModel>)> =
+        rs.iter().map(|r| (&r.header, r.seeds.iter().map(|s| &s.model).collect())).collect();
+    validation_figure(md, "fig_validation_e4", &vc, dir)?;
     for r in rs {
         let rows: Vec<Vec<String>> = r
             .seeds
             .iter()
             .map(|s| {
                 let mut v = vec![s.model.seed.to_string(), pen(s.model.penalty)];
-                v.extend(s.plateaus.iter().map(|p| {
+                v.extend(s.plateaus.iter().chain(&s.figure).map(|p| {
                     format!(
                         "{} / {:.2}{}",
                         p.measured_hz.map_or("—".into(), |h| format!("{h:.2}")),
@@ -397,17 +464,21 @@ pub fn frequency(md: &mut Md, rs: &[&FrequencyResult], dir: Option<&Path>) -> an
                         if p.passed { "" } else { " ✗" }
                     )
                 }));
-                v.push(yes(s.passed).into());
+                v.push(format!("{}{}", yes(s.passed), if s.at_limit { " (at the limit)" } else { "" }));
                 v
             })
             .collect();
-        let plateau_heads: Vec<String> =
-            r.plateaus.iter().map(|u| format!("u = {u} ({:.2} Hz)", u * r.f0_hz)).collect();
+        let mut heads: Vec<String> = r.plateaus.iter().map(|u| format!("u = {u} ({:.2} Hz)", u * r.f0_hz)).collect();
+        if let Some(s0) = r.seeds.first() {
+            heads.extend(
+                s0.figure.iter().map(|w| format!("Fig. 3, u = {} at {:.0}–{:.0} s", w.u, w.window_s[0], w.window_s[1])),
+            );
+        }
         let mut head = vec!["seed", "penalty"];
-        head.extend(plateau_heads.iter().map(String::as_str));
+        head.extend(heads.iter().map(String::as_str));
         head.push("passed");
         md.line(format!(
-            "Per seed, {}: measured frequency (Hz) / amplitude ratio at each plateau (✗: outside the tolerances):",
+            "Per seed, {}: measured frequency (Hz) / amplitude ratio at each plateau and held stretch (✗: outside the tolerances):",
             protocol_name(&r.header)
         ));
         md.blank();
@@ -419,6 +490,37 @@ pub fn frequency(md: &mut Md, rs: &[&FrequencyResult], dir: Option<&Path>) -> an
     Ok(())
 }
 
+fn frequency_against_u(rs: &[&FrequencyResult], dir: &Path) -> anyhow::Result<()> {
+    let panels: Vec<Panel> = rs
+        .iter()
+        .map(|r| {
+            let us = &r.plateaus;
+            let (lo, hi) = (
+                us.iter().copied().fold(f64::INFINITY, f64::min),
+                us.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            );
+            Panel {
+                equal_axes: false,
+                title: format!("E4 ({})", protocol_name(&r.header)),
+                x_label: "u".into(),
+                y_label: "frequency (Hz)".into(),
+                curves: vec![
+                    Curve::new(Look::Teacher, "u·f0", vec![(lo, lo * r.f0_hz), (hi, hi * r.f0_hz)]),
+                    Curve::new(
+                        Look::Marks,
+                        "seeds",
+                        r.seeds
+                            .iter()
+                            .flat_map(|s| s.plateaus.iter().map(|p| (p.u, p.measured_hz.unwrap_or(0.0))))
+                            .collect(),
+                    ),
+                ],
+            }
+        })
+        .collect();
+    save(&dir.join("fig3_frequency"), &panels, rs.len().min(3), (460 * rs.len().min(3) as u32, 420))
+}
+
 fn figure3(r: &FrequencyResult, dir: &Path) -> anyhow::Result<()> {
     let f = &r.fig3;
     let rate = 120.0;
@@ -426,6 +528,7 @@ fn figure3(r: &FrequencyResult, dir: &Path) -> anyhow::Result<()> {
         &dir.join(stem("fig3", &r.header)),
         &[
             Panel {
+                equal_axes: false,
                 title: format!(
                     "E4 plateaus ({}): u = {}",
                     protocol_name(&r.header),
@@ -439,6 +542,7 @@ fn figure3(r: &FrequencyResult, dir: &Path) -> anyhow::Result<()> {
                 ],
             },
             Panel {
+                equal_axes: false,
                 title: "The paper's test: u high → low → high".into(),
                 x_label: "time (s)".into(),
                 y_label: "left femur (z) / u".into(),
@@ -458,22 +562,12 @@ pub fn gaits(md: &mut Md, rs: &[&GaitsResult], dir: Option<&Path>) -> anyhow::Re
     let Some(first) = rs.first() else { return Ok(()) };
     md.line(format!("## {}", section_heading(&first.header, "Fig. 4")));
     md.blank();
-    for r in rs {
-        md.line(protocol_line(&r.header));
+    protocols(md, &rs.iter().map(|r| &r.header).collect::<Vec<_>>());
+    for c in &first.header.cycles {
+        md.line(teacher_line(c, &c.period_channel));
         md.blank();
     }
-    let teachers: Vec<String> = first
-        .header
-        .cycles
-        .iter()
-        .map(|c| {
-            format!(
-                "{}: period {:.1} frames (from {}), loop of {} frames, seam {:.3} σ",
-                c.label, c.period_frames, c.period_channel, c.loop_len, c.seam_excess
-            )
-        })
-        .collect();
-    md.line(format!("Teachers: {}. Test: the first gait, a smooth switch (a {}-s cosine ramp of the controls) at {} s, back at {} s, until {} s; the same with abrupt switches.", teachers.join("; "), first.ramp_s, first.switch_at_s[0], first.switch_at_s[1], first.run_s));
+    md.line(format!("Test: the first gait, a smooth switch (a {}-s cosine ramp of the controls) at {} s, back at {} s, until {} s; the same with abrupt switches.", first.ramp_s, first.switch_at_s[0], first.switch_at_s[1], first.run_s));
     md.blank();
     for r in rs {
         md.line(format!("![Figure 4, {}]({}.png)", protocol_name(&r.header), stem("fig4", &r.header)));
@@ -490,53 +584,17 @@ pub fn gaits(md: &mut Md, rs: &[&GaitsResult], dir: Option<&Path>) -> anyhow::Re
             dir,
         )?;
     }
-    let mut head = vec!["claim and measure".to_owned(), "the paper".to_owned()];
-    head.extend(rs.iter().map(|r| protocol_name(&r.header)));
-    let head: Vec<&str> = head.iter().map(String::as_str).collect();
-    let med = |r: &GaitsResult, f: &dyn Fn(&cpg_lab::experiment::gaits::GaitsSeed) -> f64| {
-        median(r.seeds.iter().map(f).collect())
-    };
-    let row = |a: &str, b: &str, f: &dyn Fn(&GaitsResult) -> String| -> Vec<String> {
-        let mut v = vec![a.to_owned(), b.to_owned()];
-        v.extend(rs.iter().map(|r| f(r)));
-        v
-    };
-    let rows = vec![
-        row("seeds passing", "smooth transitions both ways", &|r| format!("{} of {}", r.n_passed(), r.seeds.len())),
-        row("verdict", "", &|r| vcell(r.verdict())),
-        row("first gait: period / teacher's, median", "correct gait", &|r| {
-            format!("{:.3}", med(r, &|s| s.first.period_steps.map_or(0.0, |p| p / s.first.teacher_period_steps)))
-        }),
-        row("second gait: period / teacher's, median", "\"transition from walking to running\"", &|r| {
-            format!("{:.3}", med(r, &|s| s.second.period_steps.map_or(0.0, |p| p / s.second.teacher_period_steps)))
-        }),
-        row("first gait again: period / teacher's, median", "\"transition from running to walking\"", &|r| {
-            format!(
-                "{:.3}",
-                med(r, &|s| s.first_again.period_steps.map_or(0.0, |p| p / s.first_again.teacher_period_steps))
-            )
-        }),
-        row("settling after switch 1 / switch 2, median (seeds that settle)", "—", &|r| {
-            let a: Vec<f64> = r.seeds.iter().filter_map(|s| s.settle_s[0]).collect();
-            let b: Vec<f64> = r.seeds.iter().filter_map(|s| s.settle_s[1]).collect();
-            format!(
-                "{} ({}) / {} ({})",
-                secs((!a.is_empty()).then(|| median(a.clone()))),
-                a.len(),
-                secs((!b.is_empty()).then(|| median(b.clone()))),
-                b.len()
-            )
-        }),
-        row("largest step after a smooth switch, median (data's largest)", "\"smooth\"", &|r| {
-            format!("{:.3} ({:.3}) z", med(r, &|s| s.max_jump_smooth), r.data_step)
-        }),
-        row("largest step after an abrupt switch, median", "\"large amplitude spikes\"", &|r| {
-            format!("{:.3} z", med(r, &|s| s.max_jump_abrupt))
-        }),
-    ];
-    md.table(&head, &"llrr".chars().take(2 + rs.len()).collect::<String>(), &rows);
-    md.line(format!("Rule: {}.", first.verdict().rule));
+    let cols: Vec<Column<'_>> =
+        rs.iter().map(|r| Column { header: &r.header, claims: &r.claims, table: &r.table }).collect();
+    side_by_side(md, &cols);
+    if let Some(dir) = dir {
+        all_switches(rs, dir)?;
+    }
+    md.line("![Every seed's smooth switching run, each configuration in its column; the gray bands are the ramps](fig4_seeds.png)");
     md.blank();
+    let vc: Vec<(&Header, Vec<&SeedModel>)> =
+        rs.iter().map(|r| (&r.header, r.seeds.iter().map(|s| &s.model).collect())).collect();
+    validation_figure(md, "fig_validation_e5", &vc, dir)?;
     for r in rs {
         let g = |w: &cpg_lab::experiment::gaits::GaitWindow| {
             format!(
@@ -561,7 +619,7 @@ pub fn gaits(md: &mut Md, rs: &[&GaitsResult], dir: Option<&Path>) -> anyhow::Re
                     secs(s.settle_s[1]),
                     format!("{:.3}", s.max_jump_smooth),
                     format!("{:.3}", s.max_jump_abrupt),
-                    yes(s.passed).into(),
+                    format!("{}{}", yes(s.passed), if s.at_limit { " (at the limit)" } else { "" }),
                 ]
             })
             .collect();
@@ -593,6 +651,37 @@ pub fn gaits(md: &mut Md, rs: &[&GaitsResult], dir: Option<&Path>) -> anyhow::Re
     Ok(())
 }
 
+fn all_switches(rs: &[&GaitsResult], dir: &Path) -> anyhow::Result<()> {
+    let rate = 120.0;
+    let n_seeds = rs.iter().map(|r| r.smooth_runs.len()).max().unwrap_or(0);
+    let mut panels = Vec::new();
+    for k in 0..n_seeds {
+        for r in rs {
+            let Some(y) = r.smooth_runs.get(k) else { continue };
+            let (lo, hi) = y.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            let band = |t: f64| {
+                Curve::new(Look::Control, "", vec![(t, lo), (t, hi), (t + r.ramp_s, hi), (t + r.ramp_s, lo), (t, lo)])
+            };
+            panels.push(Panel {
+                equal_axes: false,
+                title: format!("seed {} ({})", r.seeds.get(k).map_or(0, |s| s.model.seed), protocol_name(&r.header)),
+                x_label: "time (s)".into(),
+                y_label: "left femur (z)".into(),
+                curves: vec![
+                    band(r.switch_at_s[0]),
+                    band(r.switch_at_s[1]),
+                    Curve::new(Look::Model, "", pts(y, 0.0, rate)),
+                ],
+            });
+        }
+    }
+    if panels.is_empty() {
+        return Ok(());
+    }
+    let cols = rs.len().max(1);
+    save(&dir.join("fig4_seeds"), &panels, cols, (520 * cols as u32, 170 * n_seeds as u32))
+}
+
 fn figure4(r: &GaitsResult, dir: &Path) -> anyhow::Result<()> {
     let f = &r.fig4;
     let rate = 120.0;
@@ -600,6 +689,7 @@ fn figure4(r: &GaitsResult, dir: &Path) -> anyhow::Result<()> {
         .teachers
         .iter()
         .map(|(label, y)| Panel {
+            equal_axes: false,
             title: format!("{label}, the training cycle"),
             x_label: "time (s)".into(),
             y_label: "left femur (z)".into(),
@@ -607,6 +697,7 @@ fn figure4(r: &GaitsResult, dir: &Path) -> anyhow::Result<()> {
         })
         .collect();
     panels.push(Panel {
+        equal_axes: false,
         title: format!(
             "Smooth switches at {} s and {} s ({})",
             r.switch_at_s[0],
@@ -621,6 +712,7 @@ fn figure4(r: &GaitsResult, dir: &Path) -> anyhow::Result<()> {
         ],
     });
     panels.push(Panel {
+        equal_axes: false,
         title: "Abrupt switches (the paper warns of spikes)".into(),
         x_label: "time (s)".into(),
         y_label: "left femur (z) / control".into(),
@@ -637,8 +729,9 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
     let Some(first) = rs.first() else { return Ok(()) };
     md.line(format!("## {}", section_heading(&first.header, "Fig. 5")));
     md.blank();
-    for r in rs {
-        md.line(protocol_line(&r.header));
+    protocols(md, &rs.iter().map(|r| &r.header).collect::<Vec<_>>());
+    if let Some(c) = first.header.cycles.first() {
+        md.line(teacher_line(c, &first.reference));
         md.blank();
     }
     for r in rs {
@@ -653,42 +746,21 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
             dir,
         )?;
     }
-    md.line(format!("{} channels, one seamless cycle of {} frames repeated; free run of {} steps ({:.0} s). A joint's **lag** is how far it trails `{}`, in cycles, from the peak of their cross-correlation (teacher: over its repeated cycle; model: over its last 10 s). Its **deviation** is the model's phase relation minus the teacher's, from aligning the joint's own teacher cycle to three cycles of the first and of the last 10 s: 0 is exactly the teacher's lag. The verdict uses the deviation: a joint with two similar peaks a cycle (the feet) can move its cross-correlation peak from one to the other without any change of phase. One frame is 1/{} of a cycle ({:.4}), the resolution of these columns. Portraits: data (the whole trial) light gray, model black (10 s from {:.0} s on).",
-        first.rows.len(), first.period_frames, first.steps, first.run_s, first.reference, first.period_frames, 1.0 / first.period_frames as f64, first.portrait_from_s));
+    md.line(format!("{} channels, one cycle of {} frames repeated; free run of {} steps ({:.0} s). A joint's **deviation** is the model's phase relation to `{}` minus the teacher's, in cycles: each channel's own teacher cycle is aligned to three cycles of the model's window to a fraction of a frame (the vertex of a parabola through the best whole shift and its neighbours), so 0 is exactly the teacher's lag and one frame is {:.4} cycle. Its **drift** is the deviation in the last 10 s minus that in the first 10 s; the verdict uses the drift. The cross-correlation **lags** are shown beside it: a joint with two similar peaks a cycle (the feet) can move its cross-correlation peak from one to the other without any change of phase, which is why the verdict does not use them. Portraits: data (the whole trial) light gray, model black (10 s from {:.0} s on).",
+        first.rows.len(), first.period_frames, first.steps, first.run_s, first.reference, 1.0 / first.period_frames as f64, first.portrait_from_s));
     md.blank();
-    let mut head = vec!["claim and measure".to_owned(), "the paper".to_owned()];
-    head.extend(rs.iter().map(|r| protocol_name(&r.header)));
-    let head: Vec<&str> = head.iter().map(String::as_str).collect();
-    let row = |a: &str, b: &str, f: &dyn Fn(&CouplingResult) -> String| -> Vec<String> {
-        let mut v = vec![a.to_owned(), b.to_owned()];
-        v.extend(rs.iter().map(|r| f(r)));
-        v
-    };
-    let spread = |v: Vec<f64>, digits: usize| -> String {
-        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let med = median(v.clone());
-        format!("{med:.digits$} ({lo:.digits$}–{hi:.digits$})")
-    };
-    let rows = vec![
-        row("seeds keeping every joint's drift below 0.05 cycle", "one run shown (Fig. 5)", &|r| {
-            format!("{} of {}", r.n_passed(), r.seeds.len())
-        }),
-        row(
-            "largest drift of a joint's deviation over the run (cycles): median of the seeds (range)",
-            "\"tight phase coupling\", \"phase relation remains intact\"",
-            &|r| spread(r.seeds.iter().map(|s| s.worst_drift).collect(), 3),
-        ),
-        row("verdict", "", &|r| vcell(r.verdict())),
-        row(
-            "median per-joint NMSE of the last cycle, best phase: median of the seeds (range)",
-            "\"learn only the desired rhythmic patterns\"",
-            &|r| spread(r.seeds.iter().map(|s| s.median_cycle_nmse).collect(), 4),
-        ),
-        row("chosen penalty, first seed", "—", &|r| pen(r.model.penalty)),
-    ];
-    md.table(&head, &"llrr".chars().take(2 + rs.len()).collect::<String>(), &rows);
-    md.line(format!("Rule: {}.", first.verdict().rule));
+    let cols: Vec<Column<'_>> =
+        rs.iter().map(|r| Column { header: &r.header, claims: &r.claims, table: &r.table }).collect();
+    side_by_side(md, &cols);
+    let vc: Vec<(&Header, Vec<&SeedModel>)> =
+        rs.iter().map(|r| (&r.header, r.seeds.iter().map(|s| &s.model).collect())).collect();
+    validation_figure(md, "fig_validation_e6", &vc, dir)?;
+    if let Some(dir) = dir {
+        deviation_figure(rs, dir)?;
+    }
+    md.line(
+        "![Every joint's deviation from the teacher's phase relation over the run, first seed](fig5_deviation.png)",
+    );
     md.blank();
     for r in rs {
         let rows: Vec<Vec<String>> = r
@@ -700,7 +772,7 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
                     pen(s.model.penalty),
                     format!("{:.3}", s.worst_drift),
                     format!("{:.4}", s.median_cycle_nmse),
-                    if s.passed { "yes".into() } else { "no".into() },
+                    format!("{}{}", yes(s.passed), if s.at_limit { " (at the limit)" } else { "" }),
                 ]
             })
             .collect();
@@ -724,9 +796,10 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
                     j.joint.clone(),
                     format!("{:+.3}", j.teacher_lag),
                     format!("{:+.3}", j.model_lag_end),
-                    format!("{:+.3}", j.deviation_start),
-                    format!("{:+.3}", j.deviation_end),
-                    format!("{:+.3}", j.drift),
+                    format!("{:+.3}", j.lag_change),
+                    format!("{:+.4}", j.deviation_start),
+                    format!("{:+.4}", j.deviation_end),
+                    format!("{:+.4}", j.drift),
                     format!("{:.4}", j.cycle_nmse),
                 ]
             })
@@ -738,18 +811,20 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
                 "joint",
                 "teacher's lag (cycles)",
                 "model's lag, last 10 s",
+                "lag change",
                 "deviation, first 10 s",
                 "deviation, last 10 s",
                 "drift",
                 "NMSE of the last cycle",
             ],
-            "lrrrrrr",
+            "lrrrrrrr",
             &rows,
         );
         let panels: Vec<Panel> = r
             .portraits
             .iter()
             .map(|p| Panel {
+                equal_axes: false,
                 title: format!("{} vs {}", p.channel, r.reference),
                 x_label: format!("{} (z)", r.reference),
                 y_label: format!("{} (z)", p.channel),
@@ -766,6 +841,31 @@ pub fn coupling(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyh
     Ok(())
 }
 
+fn deviation_figure(rs: &[&CouplingResult], dir: &Path) -> anyhow::Result<()> {
+    let panels: Vec<Panel> = rs
+        .iter()
+        .map(|r| {
+            let d = r.rows.len();
+            Panel {
+                equal_axes: false,
+                title: format!("E6 deviation over time ({}, seed {})", protocol_name(&r.header), r.model.seed),
+                x_label: "start of the 10-s window (s)".into(),
+                y_label: "deviation (cycles)".into(),
+                curves: (0..d)
+                    .map(|j| {
+                        Curve::new(
+                            Look::Model,
+                            if j == 0 { "each joint" } else { "" },
+                            r.deviation_over_time.iter().map(|(t, v)| (*t, v[j])).collect(),
+                        )
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    save(&dir.join("fig5_deviation"), &panels, rs.len().min(2), (620 * rs.len().min(2) as u32, 420))
+}
+
 /// The HOAP-2 section from E6 runs that mapped their output onto the robot.
 pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow::Result<()> {
     let mapped: Vec<&&CouplingResult> = rs.iter().filter(|r| r.hoap2.is_some()).collect();
@@ -774,7 +874,7 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
     }
     md.line("## HOAP-2 joint commands");
     md.blank();
-    for r in mapped {
+    for r in &mapped {
         let Some(h) = &r.hoap2 else { continue };
         let s = stem("e6_hoap2", &r.header);
         if let Some(dir) = dir {
@@ -783,25 +883,34 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
             std::fs::write(dir.join(format!("{s}_1khz.json")), h.trajectory_1khz.to_ros_json())?;
         }
         md.line(format!(
-            "The last 10 s of E6 ({}) mapped by the configuration's channel map onto the joints of the URDF, resampled by a natural cubic spline and kept within every joint's position range, its URDF velocity limit ({} rad/s) and an acceleration bound of {} rad/s² (ours: the HOAP-2 documents give none): `{s}_120hz.csv`, `{s}_1khz.csv` (time_s, then every joint's angle in rad, velocity in rad/s and acceleration in rad/s²) and `{s}_1khz.json` (a trajectory_msgs/JointTrajectory).",
+            "The end of E6's free run ({}) as a loop of {} whole cycles of the model ({} frames, cut where the run meets itself best), mapped by the configuration's channel map onto the joints of the URDF, resampled by a natural cubic spline (with {} frames of margin on each side, so that the spline's ends fall outside the loop) and kept within every joint's position range, its URDF velocity limit ({} rad/s) and an acceleration bound of {} rad/s² (ours: the HOAP-2 documents give none). The limiter starts in motion and runs the loop twice, keeping the second lap, so the commands start in the state they end in: `{s}_120hz.csv`, `{s}_1khz.csv` (time_s, then every joint's angle in rad, velocity in rad/s and acceleration in rad/s²) and `{s}_1khz.json` (a trajectory_msgs/JointTrajectory) can be played in a loop.",
             protocol_name(&r.header),
+            h.loop_cycles,
+            h.loop_frames,
+            cpg_lab::experiment::coupling::LOOP_MARGIN,
             h.velocity_limit_rad_s,
             h.acceleration_bound_rad_s2
         ));
         md.blank();
         md.line(format!(
-            "At 1 kHz the fastest commanded joint speed is {:.2} rad/s and the largest acceleration {:.1} rad/s²; {} commanded angle(s) lie outside their joint's range. Within every limit: {}.",
+            "At 1 kHz the fastest commanded joint speed is {:.2} rad/s and the largest acceleration {:.1} rad/s²; {} commanded angle(s) lie outside their joint's range, so the commands are within every limit: {}. That holds because the limiter makes it so; what it changed to get there, over all joints' frames: {:.1} % had their asked angle outside the range, {:.1} % were held back by the speed limit and {:.1} % by the acceleration bound. Across the loop's seam a commanded angle jumps at most {:.3}° (the largest step within the loop is {:.3}°).",
             h.max_speed_rad_s,
             h.max_acceleration_rad_s2,
             h.n_outside_range,
-            if h.n_outside_range == 0
-                && h.max_speed_rad_s <= h.velocity_limit_rad_s + 1e-9
-                && h.max_acceleration_rad_s2 <= h.acceleration_bound_rad_s2 + 1e-6
-            {
-                "yes"
-            } else {
-                "no"
-            }
+            yes(h.within_limits),
+            100.0 * h.share_position_clamped,
+            100.0 * h.share_velocity_limited,
+            100.0 * h.share_acceleration_limited,
+            h.loop_seam_rad.to_degrees(),
+            h.loop_max_step_rad.to_degrees()
+        ));
+        md.blank();
+        if let Some(dir) = dir {
+            knee_ankle_figure(r, h, &format!("{s}_knee_ankle"), dir)?;
+        }
+        md.line(format!(
+            "![{}: the left knee and ankle pitch, asked and commanded]({s}_knee_ankle.png)",
+            protocol_name(&r.header)
         ));
         md.blank();
         if h.robot_gait.is_some() || h.human_gait_scaled.is_some() {
@@ -836,7 +945,6 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
                 ],
             ];
             md.table(&["measure", "robot (generated)", "human (recorded, scaled)"], "lrr", &rows);
-            md.blank();
         }
         let pct = |k: usize, n: usize| format!("{:.1} %", 100.0 * k as f64 / n.max(1) as f64);
         let rows: Vec<Vec<String>> = h
@@ -874,4 +982,41 @@ pub fn hoap2(md: &mut Md, rs: &[&CouplingResult], dir: Option<&Path>) -> anyhow:
         );
     }
     Ok(())
+}
+
+/// The left knee and ankle pitch at 1 kHz, asked and commanded, over the first two seconds of the loop.
+fn knee_ankle_figure(
+    r: &CouplingResult,
+    h: &cpg_lab::experiment::coupling::Hoap2,
+    name: &str,
+    dir: &Path,
+) -> anyhow::Result<()> {
+    let fast = &h.trajectory_1khz;
+    let asked = &h.asked_1khz;
+    let span = fast.n_frames().min(2000);
+    let panel = |joint: &str, what: &str| -> Option<Panel> {
+        let j = fast.joints.iter().position(|x| x == joint)?;
+        let d = fast.joints.len();
+        let col = |v: &[f64]| -> Vec<(f64, f64)> {
+            (0..span).map(|f| (f as f64 / fast.rate_hz, v[f * d + j].to_degrees())).collect()
+        };
+        Some(Panel {
+            equal_axes: false,
+            title: format!("{what} ({joint}), {}", protocol_name(&r.header)),
+            x_label: "time in the loop (s)".into(),
+            y_label: "angle (deg)".into(),
+            curves: vec![
+                Curve::new(Look::Teacher, "asked", col(&asked.values_rad)),
+                Curve::new(Look::Model, "commanded", col(&fast.values_rad)),
+            ],
+        })
+    };
+    let panels: Vec<Panel> = [("lleg_joint_4", "left knee"), ("lleg_joint_5", "left ankle pitch")]
+        .iter()
+        .filter_map(|(j, w)| panel(j, w))
+        .collect();
+    if panels.is_empty() {
+        return Ok(());
+    }
+    save(&dir.join(name), &panels, 2, (1200, 420))
 }

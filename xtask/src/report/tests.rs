@@ -3,16 +3,30 @@
 //! built by hand, so these tests need no data and no training.
 //! `UPDATE_SNAPSHOTS=1 cargo test -p xtask` rewrites the golden files.
 
+use cpg_lab::experiment::conditions::{Condition, Conditions};
+use cpg_lab::experiment::differs::Difference;
 use cpg_lab::experiment::frequency::{FrequencyResult, FrequencySeed, Plateau};
 use cpg_lab::experiment::gaits::{GaitWindow, GaitsResult, GaitsSeed};
 use cpg_lab::experiment::stability::{PushInfo, StabilityResult, StabilitySeed};
-use cpg_lab::experiment::{Header, Outcome, SeedModel};
+use cpg_lab::experiment::{Edge, Header, Judged, Outcome, SeedModel};
 use cpg_lab::measure::{Recovery, Rhythm, Stability, TeacherShape};
 use cpg_lab::prepare::SegmentCycle;
 use cpg_reservoir::Teacher;
 
 use super::fmt::Md;
 use super::summary::{Headings, summary};
+
+fn seed_model(seed: u64, penalty: f64) -> SeedModel {
+    let curve: Vec<(f64, f64)> = (0..91).map(|k| (10f64.powf(1.0 - k as f64 / 10.0), 1.0 + k as f64 / 100.0)).collect();
+    SeedModel {
+        seed,
+        penalty,
+        validation_score: 0.5,
+        penalty_at_edge: penalty == 10.0,
+        edge: (penalty == 10.0).then_some(Edge::Upper),
+        curve,
+    }
+}
 
 fn header(id: &str, protocol: &str, score: &str) -> Header {
     Header {
@@ -27,14 +41,30 @@ fn header(id: &str, protocol: &str, score: &str) -> Header {
             period_frames: 134.94,
             period_channel: "lfemur.rx".into(),
             loop_start: 141,
-            loop_len: 140,
+            loop_len: 135,
             seam_excess: 0.0,
+            stride: None,
         }],
-        notes: vec![],
+        notes: vec!["segment 1 (walk (35_01)): 358 frames hold 2.7 periods of 134.9, too few to see a second stride in the rhythm alone; both legs confirm one stride".into()],
         score: score.into(),
         noise_variance: if score == "nmse" { 1e-3 } else { 0.0 },
         penalty_grid: (91, 1.0, -8.0),
         n_neurons: 300,
+        differs: if protocol == "ours" {
+            vec![Difference {
+                key: "training.teacher_noise".into(),
+                what: "noise on the fed-back teacher while harvesting".into(),
+                paper: "0".into(),
+                this: "0.1".into(),
+            }]
+        } else {
+            Vec::new()
+        },
+        conditions: Conditions {
+            validation: vec![Condition::Push { at_s: 1.3, hold_s: 0.1, above_max: 1.0 }],
+            test: vec![Condition::Push { at_s: 2.0, hold_s: 0.05, above_max: 2.0 }],
+        },
+        warnings: Vec::new(),
     }
 }
 
@@ -45,8 +75,9 @@ fn rhythm(period: Option<f64>, amp: f64) -> Rhythm {
 fn stability_seed(seed: u64, period: Option<f64>, amp: f64, penalty: f64) -> StabilitySeed {
     let accurate = period.is_some_and(|p| (p / 140.0 - 1.0).abs() < 0.01) && (amp / 1.54 - 1.0).abs() < 0.05;
     StabilitySeed {
-        model: SeedModel { seed, penalty, validation_score: 0.5, penalty_at_edge: penalty == 10.0 },
+        model: seed_model(seed, penalty),
         first_nmse: 0.02,
+        accurate: Judged { passed: accurate, at_limit: false },
         stability: Stability {
             steps: 108_000,
             teacher: TeacherShape { label: "walk (35_01)".into(), period_steps: 140.0, amplitude: vec![1.54] },
@@ -67,7 +98,7 @@ fn stability(protocol: &str) -> StabilityResult {
     } else {
         vec![stability_seed(1, Some(139.14), 1.39, 10.0), stability_seed(2, None, 0.0, 10.0)]
     };
-    StabilityResult {
+    let mut r = StabilityResult {
         header: header("E1–E3", protocol, score),
         channel: "lfemur.rx".into(),
         long_run_s: 900.0,
@@ -82,9 +113,12 @@ fn stability(protocol: &str) -> StabilityResult {
         },
         teacher: Teacher { label: "walk (35_01)".into(), controls: vec![], cycle: vec![0.0; 140], rate: 1.0 },
         seeds,
-        curve: (0..91).map(|k| (10f64.powf(1.0 - k as f64 / 10.0), 1.0 + k as f64 / 100.0)).collect(),
+        claims: Vec::new(),
+        table: Vec::new(),
         fig2: Default::default(),
-    }
+    };
+    r.summarise();
+    r
 }
 
 fn frequency() -> FrequencyResult {
@@ -96,8 +130,9 @@ fn frequency() -> FrequencyResult {
         amplitude_ratio: if ok { 1.0 } else { 0.0 },
         aligned_nmse: 0.01,
         passed: ok,
+        at_limit: false,
     };
-    FrequencyResult {
+    let mut r = FrequencyResult {
         header: header("E4", "ours", "orbit"),
         f0_hz: 0.857,
         teacher_amplitude: 1.54,
@@ -105,24 +140,35 @@ fn frequency() -> FrequencyResult {
         hold_s: 8.0,
         ramp_s: 2.0,
         seeds: vec![FrequencySeed {
-            model: SeedModel { seed: 1, penalty: 1e-3, validation_score: 0.01, penalty_at_edge: false },
+            model: seed_model(1, 1e-3),
             plateaus: vec![plateau(1.0, true), plateau(6.0, false)],
             passed: false,
+            at_limit: false,
             figure: vec![plateau(6.0, true)],
         }],
+        claims: Vec::new(),
+        table: Vec::new(),
         fig3: Default::default(),
-    }
+    };
+    r.summarise();
+    r
 }
 
 fn gaits() -> GaitsResult {
+    gaits_with(0.17, false)
+}
+
+/// E5 with one seed whose largest step after a smooth switch is `jump` (the data's is 0.197).
+fn gaits_with(jump: f64, jump_at_limit: bool) -> GaitsResult {
     let w = |t: &str, p: f64| GaitWindow {
         teacher: t.into(),
         period_steps: Some(p),
         teacher_period_steps: p,
         amplitude_ratio: 1.0,
         passed: true,
+        at_limit: false,
     };
-    GaitsResult {
+    let mut r = GaitsResult {
         header: header("E5", "ours", "orbit"),
         teachers: vec![
             TeacherShape { label: "walk".into(), period_steps: 140.0, amplitude: vec![1.36] },
@@ -133,18 +179,24 @@ fn gaits() -> GaitsResult {
         ramp_s: 1.0,
         run_s: 25.0,
         seeds: vec![GaitsSeed {
-            model: SeedModel { seed: 1, penalty: 5e-3, validation_score: 0.01, penalty_at_edge: false },
+            model: seed_model(1, 5e-3),
             first: w("walk", 140.0),
             second: w("run", 86.0),
             first_again: w("walk", 140.0),
             settle_s: [Some(0.35), Some(0.5)],
-            max_jump_smooth: 0.17,
+            max_jump_smooth: jump,
             max_jump_abrupt: 0.5,
             passed: true,
+            at_limit: jump_at_limit,
         }],
+        claims: Vec::new(),
+        table: Vec::new(),
+        smooth_runs: Vec::new(),
         fig4: Default::default(),
         view: None,
-    }
+    };
+    r.summarise();
+    r
 }
 
 fn golden(name: &str, text: &str) {
@@ -173,13 +225,7 @@ fn the_summary_table_is_pinned() {
         ("experiments/e4.toml".to_owned(), Outcome::Frequency(Box::new(frequency()))),
         ("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(gaits()))),
     ];
-    let headings = Headings {
-        stability: "E1–E3: a test (Fig. 2)".into(),
-        frequency: "E4: a test (Fig. 3)".into(),
-        gaits: "E5: a test (Fig. 4)".into(),
-        coupling: String::new(),
-        families: String::new(),
-    };
+    let headings = Headings { families: String::new() };
     let mut md = Md::default();
     summary(&mut md, &outcomes, None, &headings);
     golden("summary.md", &md.0);
@@ -191,16 +237,17 @@ fn every_verdict_is_printed_with_its_rule() {
     let mut md = Md::default();
     super::reservoir::stability(&mut md, &[&paper, &ours], None).unwrap();
     for v in [ours.e1_verdict(), ours.e2_verdict(), ours.e3_verdict()] {
-        assert!(md.0.contains(v.rule), "the E1–E3 section lacks the rule {:?}", v.rule);
+        assert!(md.0.contains(&v.rule), "the E1–E3 section lacks the rule {:?}", v.rule);
     }
     let f = frequency();
     let mut md = Md::default();
     super::reservoir::frequency(&mut md, &[&f], None).unwrap();
-    assert!(md.0.contains(f.verdict().rule), "E4 rule missing");
+    assert!(md.0.contains(&f.verdict().rule), "E4 rule missing");
     let g = gaits();
     let mut md = Md::default();
     super::reservoir::gaits(&mut md, &[&g], None).unwrap();
-    assert!(md.0.contains(g.verdict().rule), "E5 rule missing");
+    assert!(md.0.contains(&g.verdict().rule), "E5 rule missing");
+    assert!(md.0.contains(&g.spike_verdict().rule), "E5 spike rule missing");
 }
 
 #[test]
@@ -211,4 +258,97 @@ fn a_decayed_run_has_no_period() {
     let row = md.0.lines().find(|l| l.starts_with("| 2 |")).expect("seed 2's row");
     assert!(row.contains("decayed at 412 s"), "{row}");
     assert!(!row.contains("| 0.00 |") && !row.contains("127."), "no period for a decayed run: {row}");
+}
+
+#[test]
+fn a_verdict_decided_by_less_than_the_printed_digits_says_so() {
+    // E5 seed 9 of an earlier run: 0.19666 against the data's 0.19675, printed 0.197 (0.197).
+    let g = gaits_with(0.19666, true);
+    let outcomes = vec![("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(g)))];
+    let mut md = Md::default();
+    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    let row = md.0.lines().find(|l| l.contains("switched smoothly")).expect("the E5 row");
+    assert!(row.contains("| reproduced (at the limit) |"), "{row}");
+    let clear = gaits_with(0.17, false);
+    let outcomes = vec![("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(clear)))];
+    let mut md = Md::default();
+    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    assert!(!md.0.contains("at the limit)"), "{}", md.0);
+}
+
+#[test]
+fn the_summary_says_what_each_row_changes_against_the_paper() {
+    let outcomes = vec![
+        ("experiments/e1-paper.toml".to_owned(), Outcome::Stability(Box::new(stability("paper")))),
+        ("experiments/e1.toml".to_owned(), Outcome::Stability(Box::new(stability("ours")))),
+    ];
+    let mut md = Md::default();
+    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    let ours: Vec<&str> = md.0.lines().filter(|l| l.contains("| ours |")).collect();
+    assert_eq!(ours.len(), 3, "{}", md.0);
+    for row in ours {
+        assert!(row.contains("noise on the fed-back teacher while harvesting: 0 → 0.1"), "{row}");
+    }
+}
+
+#[test]
+fn a_quote_the_paper_does_not_hold_stops_the_report() {
+    use cpg_lab::experiment::claim::{Claim, Paper, Quote, Source, Verdict};
+    let claim = |text: &'static str| Claim {
+        experiment: "Centralized".into(),
+        claim: "a test".into(),
+        sources: vec![Source::Quote(Quote { paper: Paper::Vakulenko2017, place: "Summary", text })],
+        protocol: "reconstructed".into(),
+        differs: Vec::new(),
+        measured: Vec::new(),
+        verdict: Verdict::new(true, false, "a rule"),
+    };
+    // A sentence an earlier report put in the paper's mouth.
+    let made_up = [claim("2 to 3 oscillators were sufficient")];
+    let err = super::check_quotes(made_up.iter()).expect_err("the paper does not say it");
+    assert!(err.to_string().contains("2 to 3 oscillators"), "{err}");
+    let real = [claim(cpg_lab::experiment::claim::AICC_OPTIMUM.text)];
+    assert_eq!(super::check_quotes(real.iter()).expect("found"), Some(1));
+}
+
+#[test]
+fn every_quote_a_claim_can_carry_is_in_its_paper() {
+    let dir = super::papers_dir();
+    assert!(dir.is_dir(), "the papers' texts are expected at {}", dir.display());
+    for q in cpg_lab::experiment::claim::QUOTES {
+        let text = std::fs::read_to_string(dir.join(q.paper.file_name())).expect("the paper's text");
+        assert!(
+            super::squash(&text).contains(&super::squash(q.text)),
+            "{} ({}) does not say {:?}",
+            q.paper.cite(),
+            q.place,
+            q.text
+        );
+    }
+}
+
+#[test]
+fn medians_in_the_report_are_true_medians() {
+    // Two seeds: the E1 median is the mean of their first-sample NMSEs.
+    let mut r = stability("ours");
+    r.seeds[0].first_nmse = 0.02;
+    r.seeds[1].first_nmse = 0.04;
+    r.summarise();
+    let mut md = Md::default();
+    super::reservoir::stability(&mut md, &[&r], None).unwrap();
+    assert!(md.0.contains("| 0.0300 (0.0200–0.0400; n = 2) |"), "{}", md.0);
+}
+
+#[test]
+fn the_run_is_dated_by_the_calendar() {
+    assert_eq!(super::civil(0), (1970, 1, 1));
+    assert_eq!(super::civil(20_790), (2026, 12, 3));
+    assert_eq!(super::civil(11_016), (2000, 2, 29));
+    let info = super::run_info(&[("x".into(), 1.5)], 2.0, Some(3));
+    assert!(info.cores >= 1 && !info.cpu.is_empty() && !info.simd.is_empty());
+    assert!(info.date_utc.len() == 20 && info.date_utc.ends_with('Z'), "{}", info.date_utc);
+    let v = serde_json::to_value(&info).unwrap();
+    for k in ["commit", "date_utc", "cpu", "cores", "simd", "threads", "seconds", "total_s", "quotes_checked"] {
+        assert!(v.get(k).is_some(), "metrics.json's run lacks {k}");
+    }
 }

@@ -21,6 +21,7 @@ use cpg_mocap::cycle::{best_loop, tile};
 use cpg_mocap::{Motion, Skeleton};
 use cpg_reservoir::TrainedCpg;
 
+use super::claim::{self, Claim, Measure, Source, Verdict};
 use super::{Options, Progress};
 use crate::config::{Config, base_dir, parse_toml, read_text};
 use crate::error::{Error, Result};
@@ -195,6 +196,11 @@ pub struct GenRow {
     pub other_legs: Errors,
 }
 
+/// Generalisation rows the claims read.
+const GEN_2_16: &str = "centralized, 2 centers / 16 satellites, fitted on the whole trial";
+const GEN_DMP_TRIAL: &str = "DMP, 100 basis functions, the whole trial as one period";
+const GEN_DMP_CYCLE: &str = "DMP, 100 basis functions, one cycle";
+
 /// Fitted on one trial, compared with another.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Generalisation {
@@ -258,6 +264,229 @@ pub struct FamiliesResult {
     pub generalisation: Generalisation,
     /// Perturbation.
     pub perturbation: Perturbation,
+    /// The claims of Vakulenko et al., measured ([`FamiliesResult::summarise`]).
+    pub claims: Vec<Claim>,
+    /// The aggregates the section's prose quotes.
+    pub summary: FamiliesSummary,
+}
+
+/// A fit of the comparison named by its size and error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Named {
+    /// Network size.
+    pub spec: Spec,
+    /// Its mean 3-D error, mm.
+    pub mean_mm: f64,
+}
+
+/// The numbers the section's sentences are built from, found once here.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct FamiliesSummary {
+    /// The non-segmented fit with the smallest error, and the smallest network of its number of centers.
+    pub best_fit: Option<(Named, Named)>,
+    /// The smallest error with 1, 2 and 3 centers (non-segmented), mm.
+    pub best_per_centers: Vec<(usize, f64)>,
+    /// AICc's pick per number of centers: (centers, pick, AICc).
+    pub aicc_per_centers: Vec<(usize, Named, f64)>,
+    /// The satellite counts of the non-segmented grid, ascending.
+    pub sizes: Vec<usize>,
+    /// AICc's overall pick has the grid's largest satellite count (the optimum may lie beyond it).
+    pub aicc_at_edge: bool,
+    /// The segmented row with the smallest whole-sequence error.
+    pub best_segmented: Option<Named>,
+    /// The segmented rows' largest step near a boundary, and the data's, mm.
+    pub segmented_jumps_mm: (f64, f64),
+    /// The leg-point errors of the generalisation rows on the other trial: lowest, highest, mm.
+    pub generalisation_legs_mm: (f64, f64),
+}
+
+impl FamiliesResult {
+    /// Fills [`FamiliesResult::claims`] and [`FamiliesResult::summary`].
+    pub fn summarise(&mut self) {
+        let ns = &self.non_segmented;
+        let named = |r: &FitRow| Named { spec: r.spec, mean_mm: r.errors.mean_mm };
+        let mut sizes: Vec<usize> = ns.rows.iter().map(|r| r.spec.satellites).collect();
+        sizes.sort();
+        sizes.dedup();
+        let largest = sizes.last().copied().unwrap_or(0);
+        let best_fit = ns.rows.iter().min_by(|a, b| a.errors.mean_mm.total_cmp(&b.errors.mean_mm)).and_then(|b| {
+            ns.rows
+                .iter()
+                .filter(|f| f.spec.centers == b.spec.centers)
+                .min_by_key(|f| f.spec.satellites)
+                .map(|s| (named(b), named(s)))
+        });
+        let centers: Vec<usize> = (1..=3).filter(|m| ns.rows.iter().any(|r| r.spec.centers == *m)).collect();
+        let best_per_centers = centers
+            .iter()
+            .map(|&m| {
+                (
+                    m,
+                    ns.rows
+                        .iter()
+                        .filter(|r| r.spec.centers == m)
+                        .map(|r| r.errors.mean_mm)
+                        .fold(f64::INFINITY, f64::min),
+                )
+            })
+            .collect();
+        let aicc_per_centers = centers
+            .iter()
+            .filter_map(|&m| {
+                ns.rows
+                    .iter()
+                    .filter(|r| r.spec.centers == m)
+                    .min_by(|a, b| a.aicc.total_cmp(&b.aicc))
+                    .map(|r| (m, named(r), r.aicc))
+            })
+            .collect();
+        let seg = &self.segmented;
+        let best_segmented = seg
+            .rows
+            .iter()
+            .min_by(|a, b| a.whole.mean_mm.total_cmp(&b.whole.mean_mm))
+            .map(|r| Named { spec: r.spec, mean_mm: r.whole.mean_mm });
+        let worst = seg.rows.iter().map(|r| r.worst_jump_mm).fold(0.0, f64::max);
+        let data = seg.rows.first().map_or(0.0, |r| r.data_jump_mm);
+        let legs: Vec<f64> = self.generalisation.rows.iter().map(|x| x.other_legs.mean_mm).collect();
+        let sp = crate::stats::Spread::of(&legs);
+        self.summary = FamiliesSummary {
+            best_fit,
+            best_per_centers,
+            aicc_per_centers,
+            aicc_at_edge: ns.aicc_best.satellites == largest,
+            sizes,
+            best_segmented,
+            segmented_jumps_mm: (worst, data),
+            generalisation_legs_mm: (sp.min, sp.max),
+        };
+        self.claims = self.make_claims();
+    }
+
+    fn make_claims(&self) -> Vec<Claim> {
+        let seg = &self.segmented;
+        let whole = |m: usize, n: usize| {
+            seg.rows.iter().find(|r| r.spec.centers == m && r.spec.satellites == n).map(|r| r.whole.mean_mm)
+        };
+        let claim = |c: &str, sources: Vec<Source>, measured: Vec<Measure>, verdict: Verdict| {
+            Claim {
+            experiment: "Centralized".into(),
+            claim: c.into(),
+            sources,
+            protocol: "reconstructed".into(),
+            differs: vec!["the method is reconstructed from captions and Table 1 (shared/research/methods.md); subject 35's walk and run instead of 86_01".into()],
+            measured,
+            verdict,
+        }
+        };
+        let mut out = Vec::new();
+        // 1. The error falls with the satellites (two centers, Table 1's rows).
+        let ns_two: Vec<(usize, f64)> = [25, 50, 100].iter().filter_map(|&n| whole(2, n).map(|e| (n, e))).collect();
+        let falls = ns_two.len() == 3 && ns_two.windows(2).all(|w| w[1].1 <= w[0].1 * 1.05);
+        let falls_close = ns_two.windows(2).any(|w| crate::stats::at_limit(w[1].1, w[0].1 * 1.05, 1));
+        out.push(claim(
+            "with two centers the error falls as satellites are added",
+            vec![
+                Source::Quote(claim::TABLE1_CAPTION),
+                Source::Inferred { text: "Table 1: with two oscillators the integral relative accuracy improves from 25 to 50 to 100 satellites in every segment".into() },
+            ],
+            ns_two.iter().map(|(n, e)| Measure::number(format!("segmented sequence, 2 centers / {n} satellites: whole-sequence error"), *e, "mm", 1)).collect(),
+            Verdict::new(falls, falls_close, "on the segmented walk/run sequence, the whole-sequence mean 3-D error of 2 centers with 25, 50 and 100 satellites never rises by more than 5 % from one to the next"),
+        ));
+        // 2. 2–3 centers beat 1.
+        let one = whole(1, 100);
+        let best23 =
+            seg.rows.iter().filter(|r| r.spec.centers >= 2).min_by(|a, b| a.whole.mean_mm.total_cmp(&b.whole.mean_mm));
+        let beats = matches!((one, best23), (Some(o), Some(b)) if b.whole.mean_mm < 0.8 * o);
+        let beats_close =
+            matches!((one, best23), (Some(o), Some(b)) if crate::stats::at_limit(b.whole.mean_mm, 0.8 * o, 1));
+        let mut m2 = Vec::new();
+        if let Some(o) = one {
+            m2.push(Measure::number("segmented sequence, 1 center / 100 satellites", o, "mm", 1));
+        }
+        if let Some(b) = best23 {
+            m2.push(Measure::number(
+                format!("segmented sequence, best with 2–3 centers ({} / {})", b.spec.centers, b.spec.satellites),
+                b.whole.mean_mm,
+                "mm",
+                1,
+            ));
+        }
+        out.push(claim(
+            "2–3 centers are needed (1 is much worse)",
+            vec![
+                Source::Inferred { text: "Table 1: one oscillator with 100 satellites is less accurate than two with 50 in every segment".into() },
+                Source::Quote(claim::AICC_OPTIMUM),
+            ],
+            m2,
+            Verdict::new(beats, beats_close, "on the segmented walk/run sequence, the best whole-sequence error with 2 or 3 centers is below 0.8 × the error of 1 center with 100 satellites"),
+        ));
+        // 3. AICc prefers more than one center, inside the grid.
+        let ns = &self.non_segmented;
+        let sm = &self.summary;
+        let inside = !sm.aicc_at_edge;
+        out.push(claim(
+            "AICc's optimum has more than one center",
+            vec![Source::Quote(claim::AICC_OPTIMUM)],
+            vec![
+                Measure::text("AICc's pick on the non-segmented walk", format!("{} center(s) / {} satellites", ns.aicc_best.centers, ns.aicc_best.satellites)),
+                Measure::text("satellites searched", format!("{} to {}", sm.sizes.first().copied().unwrap_or(0), sm.sizes.last().copied().unwrap_or(0))),
+                Measure::text("the pick is at the grid's largest size", if sm.aicc_at_edge { "yes" } else { "no" }),
+            ],
+            Verdict::new(ns.aicc_best.centers >= 2 && inside, false, "over the non-segmented grid, the AICc minimum has 2 or 3 centers and lies below the grid's largest satellite count (a minimum at the edge says only that AICc still falls there)"),
+        ));
+        // 4. 2/16 beats the DMP (body frame, the trial each was fitted on).
+        let g = &self.generalisation.rows;
+        let find = |name: &str| g.iter().find(|r| r.model == name).map(|r| r.fitted.mean_mm);
+        let (c216, dt, dc) = (find(GEN_2_16), find(GEN_DMP_TRIAL), find(GEN_DMP_CYCLE));
+        let dmp_best = dt.unwrap_or(f64::INFINITY).min(dc.unwrap_or(f64::INFINITY));
+        let mut m4 = Vec::new();
+        for (label, v) in
+            [("centralized 2 / 16", c216), ("DMP, the whole trial as one period", dt), ("DMP, one cycle", dc)]
+        {
+            if let Some(v) = v {
+                m4.push(Measure::number(format!("{label}, on the trial it learnt (body frame)"), v, "mm", 1));
+            }
+        }
+        out.push(claim(
+            "2 centers / 16 satellites beat the rhythmic DMP",
+            vec![Source::Quote(claim::FIG15_AVERAGES)],
+            m4,
+            Verdict::new(
+                c216.is_some_and(|v| v < dmp_best),
+                c216.is_some_and(|v| crate::stats::at_limit(v, dmp_best, 1)),
+                "the mean 3-D error of 2 centers / 16 satellites on the trial it was fitted on (body frame) is below the better of the two DMPs (the trial as one period, or one cycle repeated)"),
+        ));
+        // 5. Table 1 itself.
+        out.push(match &self.paper {
+            Some(t) => {
+                let row = |m: usize, n: usize| t.rows.iter().find(|r| r.spec.centers == m && r.spec.satellites == n);
+                let ok = match (row(2, 100), row(1, 100)) {
+                    (Some(a), Some(b)) => a.per_segment.iter().zip(&b.per_segment).all(|(x, y)| x.rel_l1 < y.rel_l1),
+                    _ => false,
+                };
+                claim(
+                    "Table 1 on CMU 86_01: 2 centers / 100 satellites beat 1 / 100 in every segment",
+                    vec![Source::Quote(claim::TABLE1_CAPTION)],
+                    vec![Measure::text("rows × segments", format!("{} × {}", t.rows.len(), t.starts.len().saturating_sub(1)))],
+                    Verdict::new(ok, false, "on 86_01 with the paper's segments, the integral relative accuracy of 2 centers / 100 satellites is below that of 1 center / 100 satellites in every segment, as in the paper's Table 1"),
+                )
+            }
+            None => claim(
+                "Table 1 on CMU 86_01",
+                vec![Source::Quote(claim::TABLE1_CAPTION)],
+                vec![Measure::text(
+                    "data",
+                    format!(
+                        "not run: {} is not on this machine",
+                        std::path::Path::new(&self.paper_trial).file_name().map_or_else(|| self.paper_trial.clone(), |f| f.to_string_lossy().into_owned())
+                    ),
+                )],
+                Verdict::not_run("runs when data/cmu86/86_01.amc is present"),
+            ),
+        });
+        out
+    }
 }
 
 fn name(p: &Path) -> String {
@@ -435,14 +664,18 @@ pub fn run(
     let (period, _, _) = gait_period(&data, names.len(), 60, 200, femur)
         .ok_or_else(|| Error::Data(format!("no gait period in {}", name(&f.trial))))?;
     let res = ReservoirAngles { model: m6, names, data, period };
-    Ok(FamiliesResult {
+    let mut r = FamiliesResult {
         non_segmented: non_segmented(&tr, f, &res, opts, progress)?,
         segmented: segmented_fit(&tr, f, opts, progress)?,
         paper: paper_table(&tr, f, progress)?,
         paper_trial: f.paper_trial.display().to_string(),
         generalisation: generalisation(&tr, f, &res)?,
         perturbation: perturbation(f, opts, progress)?,
-    })
+        claims: Vec::new(),
+        summary: FamiliesSummary::default(),
+    };
+    r.summarise();
+    Ok(r)
 }
 
 /// Every network size, the DMP and the reservoir fitted to one trial.
@@ -570,13 +803,19 @@ fn generalisation(tr: &Trial, f: &FamiliesSection, res: &ReservoirAngles<'_>) ->
     };
     let net_trial = fit(&b02, d, rate, Spec::new(2, 49), &tr.control)?;
     add("centralized, 2 centers / 49 satellites, fitted on the whole trial".into(), &net_trial.generate(long, rate))?;
+    let net_16 = fit(&b02, d, rate, Spec::new(2, 16), &tr.control)?;
+    add(GEN_2_16.into(), &net_16.generate(long, rate))?;
+    // The DMP given the whole trial as one period (as it is given one segment), run on.
+    let dmp_t = RhythmicDmp::imitate(DmpConfig::pydmps(100, 2.0 * PI / t as f64), &b02, d)?;
+    let mut gt = DmpCpg::new(dmp_t, 1.0, 1.0 / rate)?;
+    add(GEN_DMP_TRIAL.into(), &generate(&mut gt, long)?)?;
     let net_cycle = fit(&tiled, d, rate, Spec::new(1, 25), &tr.control)?;
     add("centralized, 1 center / 25 satellites, fitted on the repeated cycle".into(), &net_cycle.generate(long, rate))?;
     let dmp_c = RhythmicDmp::imitate(DmpConfig::pydmps(100, 2.0 * PI / lp.len as f64), cyc, d)?;
     let mut g = DmpCpg::new(dmp_c, 1.0, 1.0 / rate)?;
     // The first cycle holds the start-up transient from rest: skipped.
     let dl = generate(&mut g, long + lp.len)?;
-    add("DMP, 100 basis functions, one cycle".into(), &dl[lp.len * d..])?;
+    add(GEN_DMP_CYCLE.into(), &dl[lp.len * d..])?;
     let n6 = res.names.len();
     let gen01 = res.run(long)?;
     let s01 = best_offset(&gen01, m01.select(&res.refs())?.values(), n6, max_off);

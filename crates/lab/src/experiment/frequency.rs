@@ -5,11 +5,13 @@ use serde::Serialize;
 
 use cpg_reservoir::Teacher;
 
-use super::{Header, Options, Progress, SeedModel, header, seeds, train_seeds};
+use super::claim::{self, Claim, Measure, Source, Verdict};
+use super::{Header, Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
 use crate::config::{Config, FrequencySection};
 use crate::error::{Error, Result};
 use crate::measure::{TeacherShape, column, free_run, rhythm};
 use crate::schedule::ControlSchedule;
+use crate::stats::Proportion;
 
 /// Largest relative frequency error at a plateau for the verdict.
 pub const FREQUENCY_TOLERANCE: f64 = 0.05;
@@ -35,6 +37,16 @@ pub struct Plateau {
     pub aligned_nmse: f64,
     /// Within both tolerances.
     pub passed: bool,
+    /// A tolerance decided it by less than the report prints (3 decimals of
+    /// the frequency ratio, 2 of the amplitude ratio).
+    pub at_limit: bool,
+}
+
+impl Plateau {
+    /// Measured over target frequency (0 when the output decayed or showed no rhythm).
+    pub fn frequency_ratio(&self) -> f64 {
+        self.measured_hz.map_or(0.0, |h| h / self.target_hz)
+    }
 }
 
 /// One seed.
@@ -46,6 +58,8 @@ pub struct FrequencySeed {
     pub plateaus: Vec<Plateau>,
     /// Every plateau and every held stretch of the figure schedule passed.
     pub passed: bool,
+    /// A plateau or stretch that decided it was at the limit.
+    pub at_limit: bool,
     /// The held stretches of the paper's figure schedule, judged the same way.
     pub figure: Vec<Plateau>,
 }
@@ -80,6 +94,10 @@ pub struct FrequencyResult {
     pub ramp_s: f64,
     /// Per seed, in seed order.
     pub seeds: Vec<FrequencySeed>,
+    /// The claim E4, measured ([`FrequencyResult::summarise`]).
+    pub claims: Vec<Claim>,
+    /// The section's other aggregates.
+    pub table: Vec<Measure>,
     /// Figure traces of the first seed.
     #[serde(skip)]
     pub fig3: Fig3,
@@ -95,13 +113,68 @@ impl FrequencyResult {
     }
 
     /// E4: the frequency follows the control over the whole range.
-    pub fn verdict(&self) -> super::Verdict {
-        super::Verdict {
-            passed: super::enough(self.n_passed(), self.seeds.len(), SEED_FRACTION),
-            rule: "at least 80 % of the seeds pass every plateau and every held stretch of the paper's schedule (frequency within 5 % of u·f0, amplitude within 25 % of the teacher's)",
+    pub fn verdict(&self) -> Verdict {
+        let j: Vec<Judged> = self.seeds.iter().map(|s| Judged { passed: s.passed, at_limit: s.at_limit }).collect();
+        verdict_over(&j, SEED_FRACTION, RULE_OVER_SEEDS)
+    }
+
+    /// Fills [`FrequencyResult::claims`] and [`FrequencyResult::table`] from the seeds.
+    pub fn summarise(&mut self) {
+        let h = &self.header;
+        self.claims = vec![Claim {
+            experiment: "E4".into(),
+            claim: format!(
+                "the frequency follows one control input over {}–{}× the recorded one",
+                self.plateaus.iter().copied().fold(f64::INFINITY, f64::min),
+                self.plateaus.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            ),
+            sources: vec![Source::Quote(claim::SIX_TIMES), Source::Quote(claim::SMOOTH_CHANGE)],
+            protocol: h.protocol.clone(),
+            differs: h.differs.iter().map(|d| d.describe()).collect(),
+            measured: vec![Measure::count(
+                "seeds within 5 % of u·f0 and 25 % of the amplitude at every plateau and on the paper's schedule",
+                Proportion::count(self.seeds.iter().map(|s| s.passed)),
+            )],
+            verdict: self.verdict(),
+        }];
+        let mut table = Vec::new();
+        for (k, &u) in self.plateaus.iter().enumerate() {
+            let fr: Vec<f64> = self.seeds.iter().map(|s| s.plateaus[k].frequency_ratio()).collect();
+            let am: Vec<f64> = self.seeds.iter().map(|s| s.plateaus[k].amplitude_ratio).collect();
+            table.push(Measure::spread(format!("u = {u}: frequency / (u·f0)"), &fr, "", 3));
+            table.push(Measure::spread(format!("u = {u}: amplitude / teacher's"), &am, "", 2));
         }
+        let n_fig = self.seeds.first().map_or(0, |s| s.figure.len());
+        for k in 0..n_fig {
+            let w = &self.seeds[0].figure[k];
+            let at = format!("Fig. 3 schedule, u = {} from {:.1} to {:.1} s", w.u, w.window_s[0], w.window_s[1]);
+            table.push(Measure::count(
+                format!("{at}: seeds passing"),
+                Proportion::count(self.seeds.iter().map(|s| s.figure[k].passed)),
+            ));
+            let fr: Vec<f64> = self.seeds.iter().map(|s| s.figure[k].frequency_ratio()).collect();
+            let am: Vec<f64> = self.seeds.iter().map(|s| s.figure[k].amplitude_ratio).collect();
+            table.push(Measure::spread(format!("{at}: frequency / (u·f0)"), &fr, "", 3));
+            table.push(Measure::spread(format!("{at}: amplitude / teacher's"), &am, "", 2));
+        }
+        let pens: Vec<f64> = self.seeds.iter().map(|s| s.model.penalty).collect();
+        let sp = crate::stats::Spread::of(&pens);
+        table.push(Measure::text(
+            "chosen penalty, lowest – highest",
+            format!("{} – {}", super::pen(sp.min), super::pen(sp.max)),
+        ));
+        table.push(Measure::count(
+            "seeds whose penalty sits at the grid's edge",
+            Proportion::count(self.seeds.iter().map(|s| s.model.penalty_at_edge)),
+        ));
+        self.table = table;
+        let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
+        self.header.warnings = super::penalty_warnings(&models, &self.header);
     }
 }
+
+/// The rule of the E4 verdict over seeds.
+pub const RULE_OVER_SEEDS: &str = "at least 80 % of the seeds pass every plateau and every held stretch of the paper's schedule, each judged over its second half: the frequency within 5 % of u·f0 and the amplitude (half range) within 25 % of the teacher's";
 
 /// What a window is judged against: the teacher at u = 1, its half range, f0 and the sample rate.
 struct Reference<'a> {
@@ -122,6 +195,9 @@ fn judge(y: &[f64], d: usize, (a, b): (usize, usize), u: f64, r0: &Reference<'_>
     let target_hz = u * f0;
     let passed = measured_hz.is_some_and(|h| (h / target_hz - 1.0).abs() < FREQUENCY_TOLERANCE)
         && (amplitude_ratio - 1.0).abs() < AMPLITUDE_TOLERANCE;
+    let at_limit = measured_hz
+        .is_some_and(|h| crate::stats::at_limit((h / target_hz - 1.0).abs(), FREQUENCY_TOLERANCE, 3))
+        || crate::stats::at_limit((amplitude_ratio - 1.0).abs(), AMPLITUDE_TOLERANCE, 2);
     Plateau {
         u,
         window_s: [a as f64 / rate, b as f64 / rate],
@@ -130,6 +206,7 @@ fn judge(y: &[f64], d: usize, (a, b): (usize, usize), u: f64, r0: &Reference<'_>
         amplitude_ratio,
         aligned_nmse: r.aligned_nmse,
         passed,
+        at_limit,
     }
 }
 
@@ -199,13 +276,24 @@ pub fn run(c: &Config, f: &FrequencySection, opts: Options, progress: &dyn Progr
             });
             progress.tick();
             let passed = plateaus.iter().chain(&figure_windows).all(|p: &Plateau| p.passed);
-            Ok((FrequencySeed { model: SeedModel::of(m, seed), plateaus, passed, figure: figure_windows }, fig))
+            // At the limit when the deciding windows were: for a pass, any of
+            // them; for a failure, when every failing window was.
+            let all: Vec<&Plateau> = plateaus.iter().chain(&figure_windows).collect();
+            let at_limit = if passed {
+                all.iter().any(|p| p.at_limit)
+            } else {
+                all.iter().filter(|p| !p.passed).all(|p| p.at_limit)
+            };
+            Ok((
+                FrequencySeed { model: SeedModel::of(m, seed), plateaus, passed, at_limit, figure: figure_windows },
+                fig,
+            ))
         })
         .collect();
     progress.finish();
     let per_seed = per_seed?;
     let fig3 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
-    Ok(FrequencyResult {
+    let mut r = FrequencyResult {
         header: header(c, &prep, models[0].reservoir.n_neurons())?,
         f0_hz: f0,
         teacher_amplitude: shape.amplitude[0],
@@ -213,6 +301,10 @@ pub fn run(c: &Config, f: &FrequencySection, opts: Options, progress: &dyn Progr
         hold_s: f.hold_s,
         ramp_s: f.ramp_s,
         seeds: per_seed.into_iter().map(|(s, _)| s).collect(),
+        claims: Vec::new(),
+        table: Vec::new(),
         fig3,
-    })
+    };
+    r.summarise();
+    Ok(r)
 }

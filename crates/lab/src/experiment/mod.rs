@@ -2,7 +2,10 @@
 //! configuration's `[experiment]` table, returning typed results. The report
 //! (`cargo xtask evaluate`) renders them; nothing here prints.
 
+pub mod claim;
+pub mod conditions;
 pub mod coupling;
+pub mod differs;
 pub mod families;
 pub mod frequency;
 pub mod gaits;
@@ -17,18 +20,31 @@ use crate::prepare::{Prepared, SegmentCycle, prepare};
 use crate::train::{penalty_at_edge, train_prepared};
 use cpg_reservoir::TrainedCpg;
 
-/// Whether a claim of the paper was reproduced, and the rule that says so.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub struct Verdict {
-    /// The rule held.
-    pub passed: bool,
-    /// The rule, as printed beside the verdict.
-    pub rule: &'static str,
-}
+pub use claim::{Claim, Measure, Verdict};
 
 /// Seeds needed for a verdict over seeds: at least `fraction` of them (rounded up).
 pub fn enough(passed: usize, seeds: usize, fraction: f64) -> bool {
-    seeds > 0 && passed as f64 >= (fraction * seeds as f64).ceil() - 1e-9
+    claim::over_seeds(passed, seeds, fraction, 0, 0).0
+}
+
+/// A seed's judgement: whether it passed and whether a comparison that
+/// decided it was closer than the report prints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct Judged {
+    /// Every part of the rule held.
+    pub passed: bool,
+    /// Some deciding comparison was within half a printed digit of its limit.
+    pub at_limit: bool,
+}
+
+/// The verdict over seeds judged `j`: at least `fraction` of them passed
+/// (rounded up), at the limit when seeds decided by a hair could change it.
+pub fn verdict_over(j: &[Judged], fraction: f64, rule: impl Into<String>) -> Verdict {
+    let passed = j.iter().filter(|s| s.passed).count();
+    let pl = j.iter().filter(|s| s.passed && s.at_limit).count();
+    let fl = j.iter().filter(|s| !s.passed && s.at_limit).count();
+    let (ok, fragile) = claim::over_seeds(passed, j.len(), fraction, pl, fl);
+    Verdict::new(ok, fragile, rule)
 }
 
 /// Reports how far a long experiment has come (the app draws a progress bar).
@@ -69,6 +85,10 @@ pub struct SeedModel {
     pub validation_score: f64,
     /// The penalty is the first or the last of the grid.
     pub penalty_at_edge: bool,
+    /// Which edge: `upper` (the largest penalty), `lower`, or none.
+    pub edge: Option<Edge>,
+    /// The validation curve: (penalty, score) for every penalty of the grid.
+    pub curve: Vec<(f64, f64)>,
 }
 
 impl SeedModel {
@@ -80,9 +100,77 @@ impl SeedModel {
             penalty: p.chosen_penalty,
             validation_score: p.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min),
             penalty_at_edge: penalty_at_edge(m),
+            edge: edge_of(m),
+            curve: p.validation_curve.iter().map(|v| (v.penalty, v.nmse)).collect(),
         }
     }
 }
+
+/// A penalty as the report prints it: `1.26e-2`, `1.00e1`.
+pub fn pen(x: f64) -> String {
+    if x == 0.0 { "0".into() } else { format!("{x:.2e}") }
+}
+
+/// An end of the penalty grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Edge {
+    /// The largest penalty of the grid.
+    Upper,
+    /// The smallest.
+    Lower,
+}
+
+fn edge_of(m: &TrainedCpg) -> Option<Edge> {
+    let v = m.provenance.settings.penalties.values();
+    let p = m.provenance.chosen_penalty;
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    if v.len() < 2 {
+        None
+    } else if p == hi {
+        Some(Edge::Upper)
+    } else if p == lo {
+        Some(Edge::Lower)
+    } else {
+        None
+    }
+}
+
+/// Sentences on the penalties the seeds chose: how many sit at an edge of
+/// the grid and, for the paper's score, whether the best score there is a
+/// constant output's (then no wider grid helps).
+pub fn penalty_warnings(seeds: &[&SeedModel], h: &Header) -> Vec<String> {
+    let n = seeds.len();
+    let (_, hi, lo) = h.penalty_grid;
+    let mut out = Vec::new();
+    for (edge, name, at) in [(Edge::Upper, "upper", hi), (Edge::Lower, "lower", lo)] {
+        let on: Vec<&&SeedModel> = seeds.iter().filter(|s| s.edge == Some(edge)).collect();
+        if on.is_empty() {
+            continue;
+        }
+        let scores: Vec<f64> = on.iter().map(|s| s.validation_score).collect();
+        let sp = crate::stats::Spread::of(&scores);
+        let flat = h.score == "nmse" && edge == Edge::Upper && sp.min >= CONSTANT_OUTPUT_NMSE;
+        out.push(format!(
+            "The penalty sits at the grid's {name} edge (10^{at}) for {} of {n} seeds, with validation scores {:.3}–{:.3}{}",
+            on.len(),
+            sp.min,
+            sp.max,
+            if flat {
+                format!(
+                    ": at least {CONSTANT_OUTPUT_NMSE}, about the NMSE of a constant output (1), so the score falls as the readout shrinks toward silence and no wider grid would hold a better penalty."
+                )
+            } else {
+                ": the best penalty may lie beyond the grid.".to_owned()
+            }
+        ));
+    }
+    out
+}
+
+/// A validation NMSE at least this large is about a constant output's (1).
+pub const CONSTANT_OUTPUT_NMSE: f64 = 0.95;
 
 /// What every experiment reports about itself.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -109,6 +197,12 @@ pub struct Header {
     pub penalty_grid: (usize, f64, f64),
     /// Reservoir size.
     pub n_neurons: usize,
+    /// What this configuration changes against the paper's protocol.
+    pub differs: Vec<differs::Difference>,
+    /// The conditions of its validation and of its test.
+    pub conditions: conditions::Conditions,
+    /// Warnings about the run (penalties at the grid's edge).
+    pub warnings: Vec<String>,
 }
 
 /// The title of an experiment's view: `E5 (our protocol): walk/run switching …`.
@@ -143,6 +237,16 @@ impl Outcome {
             Outcome::Frequency(r) => &r.header,
             Outcome::Gaits(r) => &r.header,
             Outcome::Coupling(r) => &r.header,
+        }
+    }
+
+    /// The claims it measured, in report order.
+    pub fn claims(&self) -> &[Claim] {
+        match self {
+            Outcome::Stability(r) => &r.claims,
+            Outcome::Frequency(r) => &r.claims,
+            Outcome::Gaits(r) => &r.claims,
+            Outcome::Coupling(r) => &r.claims,
         }
     }
 
@@ -205,6 +309,16 @@ pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
         noise_variance: c.training.noise_variance,
         penalty_grid: (crate::train::train_settings(c)?.penalties.len(), g.start, g.stop),
         n_neurons,
+        differs: match (e.protocol.as_str(), &e.paper_config) {
+            ("paper", _) => differs::paper_protocol_differences(c),
+            // The files as written (a quick run changes sizes in memory).
+            (_, Some(p)) => {
+                differs::differences(&Config::load(p)?, &Config::load(&c.source).unwrap_or_else(|_| c.clone()))?
+            }
+            (_, None) => Vec::new(),
+        },
+        conditions: conditions::conditions(c)?,
+        warnings: Vec::new(),
     })
 }
 
@@ -256,5 +370,54 @@ pub fn run(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome
             "experiment",
             "needs exactly one of [experiment.stability], [experiment.frequency], [experiment.gaits], [experiment.coupling]",
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(score: &str) -> Header {
+        Header {
+            id: "E4".into(),
+            title: "a test".into(),
+            protocol: "paper".into(),
+            method: String::new(),
+            config: String::new(),
+            cycles: Vec::new(),
+            notes: Vec::new(),
+            score: score.into(),
+            noise_variance: 1e-3,
+            penalty_grid: (131, 5.0, -8.0),
+            n_neurons: 300,
+            differs: Vec::new(),
+            conditions: conditions::Conditions { validation: Vec::new(), test: Vec::new() },
+            warnings: Vec::new(),
+        }
+    }
+
+    fn seed(edge: Option<Edge>, score: f64) -> SeedModel {
+        SeedModel {
+            seed: 1,
+            penalty: 1e5,
+            validation_score: score,
+            penalty_at_edge: edge.is_some(),
+            edge,
+            curve: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_penalty_at_the_grid_edge_is_a_warning_that_says_why() {
+        // The paper's score at a constant output's NMSE: no wider grid helps.
+        let (a, b, c) = (seed(Some(Edge::Upper), 1.001), seed(Some(Edge::Upper), 1.002), seed(None, 0.9));
+        let w = penalty_warnings(&[&a, &b, &c], &header("nmse"));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("2 of 3 seeds") && w[0].contains("no wider grid"), "{w:?}");
+        // A low score at the edge: the grid may be too narrow.
+        let d = seed(Some(Edge::Lower), 0.01);
+        let w = penalty_warnings(&[&d, &c], &header("orbit"));
+        assert!(w[0].contains("lower edge (10^-8)") && w[0].contains("beyond the grid"), "{w:?}");
+        assert!(penalty_warnings(&[&c], &header("nmse")).is_empty());
     }
 }

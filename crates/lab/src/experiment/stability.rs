@@ -7,7 +7,8 @@ use serde::Serialize;
 use cpg_mocap::cycle::align_to_cycle;
 use cpg_reservoir::{Teacher, TrainedCpg};
 
-use super::{Options, Progress, SeedModel, header, seeds, train_seeds};
+use super::claim::{self, Claim, Measure, Source, Verdict};
+use super::{Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
 use crate::config::{Config, PushSection, StabilitySection};
 use crate::error::{Error, Result};
 use crate::measure::{Push, Recovery, Stability, column, free_run, recovery, stability};
@@ -15,6 +16,9 @@ use crate::schedule::ControlSchedule;
 
 /// The rule of a seed's E2 verdict, as printed beside it.
 pub const RULE: &str = "accurate: at the end of the run the period is within 1 % of the teacher's and every amplitude (half range) within 5 %";
+/// Decimals the report prints of a period in frames and of an amplitude ratio.
+const PERIOD_DIGITS: usize = 2;
+const AMPLITUDE_DIGITS: usize = 3;
 /// Largest median NMSE of the first free-run samples for the E1 verdict
 /// (for a sinusoid a pure phase slip φ costs 2(1 − cos φ): 0.1 allows about 18°).
 pub const E1_NMSE_LIMIT: f64 = 0.1;
@@ -30,8 +34,27 @@ pub struct StabilitySeed {
     pub first_nmse: f64,
     /// The long run.
     pub stability: Stability,
+    /// Whether the long run is accurate, and whether by a margin the report can show.
+    pub accurate: Judged,
     /// The push.
     pub recovery: Recovery,
+}
+
+/// A long run's accuracy (see [`crate::measure`]) and whether a period or
+/// an amplitude decided it by less than the report prints.
+pub fn accuracy(st: &Stability) -> Judged {
+    let t = &st.teacher;
+    let near_period = st.end.period_steps.is_some_and(|p| {
+        crate::stats::at_limit(
+            (p - t.period_steps).abs(),
+            crate::measure::PERIOD_TOLERANCE * t.period_steps,
+            PERIOD_DIGITS,
+        )
+    });
+    let near_amp = st.end.amplitude.iter().zip(&t.amplitude).any(|(a, b)| {
+        crate::stats::at_limit((a / b - 1.0).abs(), crate::measure::AMPLITUDE_TOLERANCE, AMPLITUDE_DIGITS)
+    });
+    Judged { passed: st.accurate, at_limit: near_period || near_amp }
 }
 
 /// The push as applied.
@@ -87,8 +110,10 @@ pub struct StabilityResult {
     pub teacher: Teacher,
     /// Per seed, in seed order.
     pub seeds: Vec<StabilitySeed>,
-    /// Validation curve of the first seed: (penalty, score).
-    pub curve: Vec<(f64, f64)>,
+    /// The claims E1, E2 and E3, measured ([`StabilityResult::summarise`]).
+    pub claims: Vec<Claim>,
+    /// The section's other aggregates.
+    pub table: Vec<Measure>,
     /// Figure traces of the first seed.
     #[serde(skip)]
     pub fig2: Fig2,
@@ -97,9 +122,7 @@ pub struct StabilityResult {
 impl StabilityResult {
     /// Median NMSE of the first free-run samples over the seeds.
     pub fn median_first_nmse(&self) -> f64 {
-        let mut v: Vec<f64> = self.seeds.iter().map(|s| s.first_nmse).collect();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        crate::stats::median(&self.seeds.iter().map(|s| s.first_nmse).collect::<Vec<_>>())
     }
 
     /// Seeds accurate at the end of the long run.
@@ -112,33 +135,128 @@ impl StabilityResult {
         self.seeds.iter().filter(|s| s.stability.converged).count()
     }
 
-    /// Seeds back on the teacher's orbit after the push.
+    /// Seeds back on the teacher's orbit for good after the push.
     pub fn n_recovered(&self) -> usize {
         self.seeds.iter().filter(|s| s.recovery.orbit_s.is_some()).count()
     }
 
     /// E1: the pattern is learnt.
-    pub fn e1_verdict(&self) -> super::Verdict {
-        super::Verdict {
-            passed: self.median_first_nmse() < E1_NMSE_LIMIT,
-            rule: "median over seeds of the NMSE of the first free-run samples against the teacher below 0.1 (a sinusoid slipped by 18° in phase scores 0.1)",
-        }
+    pub fn e1_verdict(&self) -> Verdict {
+        let m = self.median_first_nmse();
+        Verdict::new(
+            m < E1_NMSE_LIMIT,
+            crate::stats::at_limit(m, E1_NMSE_LIMIT, 4),
+            format!(
+                "the median over seeds of the NMSE of the first {} free-run samples against the teacher is below {E1_NMSE_LIMIT} (a sinusoid slipped by 18° in phase scores 0.1)",
+                self.first_samples
+            ),
+        )
     }
 
     /// E2: stable over the long run.
-    pub fn e2_verdict(&self) -> super::Verdict {
-        super::Verdict {
-            passed: super::enough(self.n_accurate(), self.seeds.len(), SEED_FRACTION),
-            rule: "at least 90 % of the seeds accurate at the end of the long run (period within 1 %, every amplitude within 5 % of the teacher's)",
-        }
+    pub fn e2_verdict(&self) -> Verdict {
+        let j: Vec<Judged> = self.seeds.iter().map(|s| s.accurate).collect();
+        verdict_over(
+            &j,
+            SEED_FRACTION,
+            format!(
+                "at least 90 % of the seeds accurate at the end of the {:.0}-s run: the period within 1 % of the teacher's and every amplitude (half range) within 5 %",
+                self.long_run_s
+            ),
+        )
     }
 
     /// E3: recovery from the push.
-    pub fn e3_verdict(&self) -> super::Verdict {
-        super::Verdict {
-            passed: super::enough(self.n_recovered(), self.seeds.len(), SEED_FRACTION),
-            rule: "at least 90 % of the seeds back on the teacher's orbit within 40 cycles of the push",
-        }
+    pub fn e3_verdict(&self) -> Verdict {
+        let j: Vec<Judged> =
+            self.seeds.iter().map(|s| Judged { passed: s.recovery.orbit_s.is_some(), at_limit: false }).collect();
+        verdict_over(
+            &j,
+            SEED_FRACTION,
+            "at least 90 % of the seeds back on the teacher's orbit for good: within 0.25 σ over quarter-period windows from some time after the release until the end of the 40 cycles that follow it",
+        )
+    }
+
+    /// Fills [`StabilityResult::claims`] and [`StabilityResult::table`] from the seeds.
+    pub fn summarise(&mut self) {
+        let h = &self.header;
+        let n = self.seeds.len();
+        let differs: Vec<String> = h.differs.iter().map(|d| d.describe()).collect();
+        let claim =
+            |experiment: &str, claim: String, q: claim::Quote, measured: Vec<Measure>, verdict: Verdict| Claim {
+                experiment: experiment.into(),
+                claim,
+                sources: vec![Source::Quote(q)],
+                protocol: h.protocol.clone(),
+                differs: differs.clone(),
+                measured,
+                verdict,
+            };
+        let first: Vec<f64> = self.seeds.iter().map(|s| s.first_nmse).collect();
+        let back: Vec<f64> = self.seeds.iter().filter_map(|s| s.recovery.orbit_s).collect();
+        let twin: Vec<f64> = self.seeds.iter().filter_map(|s| s.recovery.twin_s).collect();
+        self.claims = vec![
+            claim(
+                "E1",
+                format!("the femur pattern is learnt (the first {} samples of free run)", self.first_samples),
+                claim::LITTLE_DIFFERENCE,
+                vec![Measure::spread(
+                    format!("NMSE of the first {} free-run samples over {n} seeds", self.first_samples),
+                    &first,
+                    "",
+                    4,
+                )],
+                self.e1_verdict(),
+            ),
+            claim(
+                "E2",
+                format!("stable after {:.0} s of free run", self.long_run_s),
+                claim::AFTER_900_S,
+                vec![
+                    Measure::count(
+                        format!("seeds accurate after {:.0} s", self.long_run_s),
+                        crate::stats::Proportion::count(self.seeds.iter().map(|s| s.stability.accurate)),
+                    ),
+                    Measure::count(
+                        "seeds converged (the rhythm no longer changes, accurate or not)",
+                        crate::stats::Proportion::count(self.seeds.iter().map(|s| s.stability.converged)),
+                    ),
+                ],
+                self.e2_verdict(),
+            ),
+            claim(
+                "E3",
+                format!("recovers from a {:.0}-ms push", 1000.0 * self.push.hold_s),
+                claim::RECOVERS_WELL,
+                vec![
+                    Measure::count(
+                        "seeds back on the teacher's orbit for good",
+                        crate::stats::Proportion::count(self.seeds.iter().map(|s| s.recovery.orbit_s.is_some())),
+                    ),
+                    Measure::spread("time from the release until back on the orbit (seeds that are)", &back, "s", 2),
+                ],
+                self.e3_verdict(),
+            ),
+        ];
+        let pens: Vec<f64> = self.seeds.iter().map(|s| s.model.penalty).collect();
+        let sp = crate::stats::Spread::of(&pens);
+        self.table = vec![
+            Measure::count(
+                "seeds back on the unperturbed twin (in phase) for good",
+                crate::stats::Proportion::count(self.seeds.iter().map(|s| s.recovery.twin_s.is_some())),
+            ),
+            Measure::spread("time until back on the twin (seeds that are)", &twin, "s", 2),
+            Measure::text(
+                "chosen penalty, lowest – highest",
+                format!("{} – {}", super::pen(sp.min), super::pen(sp.max)),
+            ),
+            Measure::count(
+                "seeds whose penalty sits at the grid's edge",
+                crate::stats::Proportion::count(self.seeds.iter().map(|s| s.model.penalty_at_edge)),
+            ),
+        ];
+        let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
+        self.header.warnings = super::penalty_warnings(&models, &self.header);
     }
 }
 
@@ -225,13 +343,19 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
                 let (shift, _) = align_to_cycle(&tail0, &cyc0, 1);
                 let end_teacher: Vec<f64> = (0..tail0.len()).map(|k| cyc0[(shift + k) % cyc0.len()]).collect();
                 let span = (10 * rate as usize).min(release + after);
+                // While held, the output is the held value (the paper's "output was forced").
+                let mut pushed0 = to_units(m, 0, &column(&pushed[..span * d], d, 0));
+                let held0 = push.values[0] * m.outputs[0].std + m.outputs[0].mean;
+                for v in pushed0.iter_mut().skip(push.at).take(push.len) {
+                    *v = held0;
+                }
                 Fig2 {
                     first_model: to_units(m, 0, &column(first, d, 0)),
                     first_teacher: to_units(m, 0, &column(&first_teacher, d, 0)),
                     end_model: to_units(m, 0, &tail0),
                     end_teacher: to_units(m, 0, &end_teacher),
                     end_start_s: (long - tail0.len()) as f64 / rate,
-                    pushed: to_units(m, 0, &column(&pushed[..span * d], d, 0)),
+                    pushed: pushed0,
                     free: to_units(m, 0, &column(&y[..span * d], d, 0)),
                 }
             });
@@ -240,6 +364,7 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
                 StabilitySeed {
                     model: SeedModel::of(m, seed),
                     first_nmse: nmse(first, &first_teacher, d),
+                    accurate: accuracy(&st),
                     stability: st,
                     recovery: rec,
                 },
@@ -252,7 +377,7 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
     let m0 = &models[0];
     let held_units = push.values.iter().enumerate().map(|(k, v)| v * m0.outputs[k].std + m0.outputs[k].mean).collect();
     let fig2 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
-    Ok(StabilityResult {
+    let mut r = StabilityResult {
         header: header(c, &prep, m0.reservoir.n_neurons())?,
         channel: m0.outputs[0].name.clone(),
         long_run_s: long as f64 / rate,
@@ -267,7 +392,10 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
         },
         teacher,
         seeds: per_seed.into_iter().map(|(s, _)| s).collect(),
-        curve: m0.provenance.validation_curve.iter().map(|v| (v.penalty, v.nmse)).collect(),
+        claims: Vec::new(),
+        table: Vec::new(),
         fig2,
-    })
+    };
+    r.summarise();
+    Ok(r)
 }
