@@ -35,6 +35,23 @@ fn output(program: &str, args: &[&str]) -> anyhow::Result<String> {
 /// its normal (non-dev) dependencies, direct or transitive.
 const RULES: &[(&str, &[&str])] = &[
     (
+        "cpg-io",
+        &[
+            "faer",
+            "rayon",
+            "nalgebra",
+            "anyhow",
+            "cpg-mocap",
+            "cpg-reservoir",
+            "cpg-regression",
+            "cpg-hoap2",
+            "cpg-cli",
+            "cpg-compare",
+            "cpg-lab",
+            "cpg-view",
+        ],
+    ),
+    (
         "cpg-mocap",
         &[
             "faer",

@@ -445,10 +445,26 @@ fn main() -> ExitCode {
             if e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {}", message(&e));
+            eprintln!("error: {}", show(&message(&e)));
             ExitCode::from(2)
         }
     }
+}
+
+/// Text for the terminal: control characters that a file or joint name may
+/// carry (ESC, NUL, a bare carriage return) are shown escaped (`\u{1b}`), so
+/// a message cannot move the cursor, recolour the terminal or hide itself;
+/// tabs and newlines stay.
+pub fn show(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        if c.is_control() && c != '\n' && c != '\t' {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The error and its causes on one line, each cause once: a library error

@@ -12,8 +12,3 @@ pub fn write_npy(w: &mut dyn Write, shape: &[usize], values: impl IntoIterator<I
     out.finish()?;
     Ok(())
 }
-
-/// Whether a path names an `.npy` file.
-pub fn is_npy(path: &std::path::Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("npy"))
-}

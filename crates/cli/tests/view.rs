@@ -425,3 +425,37 @@ fn a_recording_is_shown_beside_the_robot_it_drives_and_bad_requests_say_why() {
     assert!(!o.status.success() && e.contains("frames per second"), "{e}");
     assert!(!dir.path().join("x.gif").exists(), "nothing is written on an error");
 }
+
+/// Names come from the user's files: a joint named to break out of the page
+/// (`<!--<script>`, `</script>`) is shown as text, and the page still runs.
+#[test]
+fn hostile_joint_names_are_text_and_the_page_still_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let bvh = dir.path().join("hostile.bvh");
+    let mut text = String::from(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT <!--<script>\n  {\n    OFFSET 0 -90 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 -90 0\n    }\n  }\n  JOINT </script><b>&amp;\n  {\n    OFFSET 0 40 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 30 0\n    }\n  }\n}\nMOTION\nFrames: 30\nFrame Time: 0.0333333\n",
+    );
+    for k in 0..30 {
+        let a = 20.0 * (k as f64 * 0.2).sin();
+        text.push_str(&format!("0 180 {} 0 0 0 0 {a:.3} 0 0 {:.3} 0\n", k as f64, -a));
+    }
+    std::fs::write(&bvh, text).unwrap();
+    let html = dir.path().join("hostile.html");
+    ok(&cpg(&[
+        OsStr::new("view"),
+        "--motion".as_ref(),
+        bvh.as_os_str(),
+        "--no-robot".as_ref(),
+        "-o".as_ref(),
+        html.as_os_str(),
+    ]));
+    let page = std::fs::read_to_string(&html).unwrap();
+    assert!(!page.contains("<!--<script>") && !page.contains("</script><b>"), "a name reached the page's markup raw");
+    let mut b = Browser::start();
+    b.open(&html);
+    assert_eq!(b.eval("cpgView.figures"), json!(1), "the page's script did not run");
+    let names = b.eval("JSON.parse(document.getElementById('scene').textContent).figures[0].names.join('|')");
+    let names = names.as_str().unwrap();
+    assert!(names.contains("<!--<script>") && names.contains("</script><b>&amp;"), "{names}");
+    assert_eq!(b.eval("document.querySelectorAll('script').length"), json!(2), "no script element was injected");
+}

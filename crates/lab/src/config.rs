@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 
 /// The largest configuration file read, bytes.
 pub const MAX_CONFIG_BYTES: usize = 1 << 20;
+/// The most `[[data.segments]]` a configuration has.
+pub const MAX_SEGMENTS: usize = 1000;
 
 /// A whole configuration file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -621,13 +623,15 @@ pub(crate) fn base_dir(path: &Path) -> &Path {
 
 /// Reads a configuration file: bounded in size, UTF-8.
 pub(crate) fn read_text(path: &Path) -> Result<String> {
-    let io = |source| Error::Io { path: path.to_owned(), source };
-    let meta = std::fs::metadata(path).map_err(io)?;
     let bad = |message: String| Error::Config { file: path.to_owned(), line: None, field: String::new(), message };
-    if meta.len() > MAX_CONFIG_BYTES as u64 {
-        return Err(bad(format!("{} bytes; a configuration has at most {MAX_CONFIG_BYTES}", meta.len())));
-    }
-    let bytes = std::fs::read(path).map_err(io)?;
+    // Bounded whatever the metadata says: /dev/zero reports a length of 0.
+    let bytes = cpg_io::read_bounded(path, MAX_CONFIG_BYTES as u64).map_err(|e| match e {
+        cpg_io::Error::Io { path, source } => Error::Io { path, source },
+        cpg_io::Error::TooLarge { .. } => {
+            bad(format!("larger than {MAX_CONFIG_BYTES} bytes, the most a configuration has"))
+        }
+        other => bad(other.to_string()),
+    })?;
     let text = String::from_utf8(bytes)
         .map_err(|e| bad(format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))?;
     // A byte-order mark (some Windows editors write one) is not part of the TOML.
@@ -819,6 +823,26 @@ impl Config {
         within("data.repeats", d.repeats, 1, 10_000)?;
         within("data.loop_cycles", d.loop_cycles, 0, 100)?;
         within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
+        within("data.segments", d.segments.len(), 1, MAX_SEGMENTS)?;
+        if d.loop_cycles > 0 && d.tempo.is_none() {
+            // The training sequence's length is known from the file alone: bounded before any motion is read.
+            let blocks = d.segments.len().saturating_mul(d.repeats);
+            let morph = (d.morph_s * d.rate_hz).round() as usize;
+            let total = blocks
+                .saturating_mul(d.samples_per_segment)
+                .saturating_add(blocks.saturating_sub(1).saturating_mul(morph));
+            if total > max_samples {
+                return Err(bad(
+                    "data.samples_per_segment",
+                    format!(
+                        "the training sequence would have {total} samples ({} segments × {} repeats × {} samples, plus blends); at most {max_samples}",
+                        d.segments.len(),
+                        d.repeats,
+                        d.samples_per_segment
+                    ),
+                ));
+            }
+        }
         if let Some(t) = &d.tempo {
             within("data.tempo.samples", t.samples, 1, max_samples)?;
             within("data.tempo.knot_every", t.knot_every, 1, max_samples)?;

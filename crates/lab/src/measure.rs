@@ -329,6 +329,12 @@ pub fn free_runs(runs: &[RunSpec<'_>]) -> Result<Vec<Vec<f64>>> {
 /// [`free_runs`], with each run's outcome on its own: a run that diverged
 /// does not hide the others. The outer error is a schedule that does not fit its model.
 pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
+    free_runs_on(runs, threads())
+}
+
+/// [`free_runs_each`] on `threads` threads (a long run is split by rows over
+/// them; 1 runs on the calling thread alone). The bits do not depend on it.
+pub fn free_runs_on(runs: &[RunSpec<'_>], threads: usize) -> Result<Vec<Result<Vec<f64>>>> {
     let mut at = Vec::with_capacity(runs.len());
     let mut holds = Vec::with_capacity(runs.len());
     for r in runs {
@@ -342,7 +348,7 @@ pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
         .zip(&holds)
         .map(|((r, a), h)| Run { model: r.model, controls: a, steps: r.steps, hold: h.as_ref(), noise: r.noise })
         .collect();
-    Ok(cpg_reservoir::batch::free_runs(&batch, threads()).into_iter().map(|r| r.map_err(Error::from)).collect())
+    Ok(cpg_reservoir::batch::free_runs(&batch, threads.max(1)).into_iter().map(|r| r.map_err(Error::from)).collect())
 }
 
 /// One control setting of a model judged: what `cpg evaluate` prints and the

@@ -80,24 +80,30 @@ struct Node {
     end_site: bool,
 }
 
-/// Tokens of the text with their line numbers, in order.
-struct Stream<'a> {
-    lines: Vec<Line<'a>>,
-    line: usize,
+/// Tokens of the text with their line numbers, in order, read a line at a
+/// time (a BVH file's frames are most of it: they are never held as tokens).
+struct Stream<'a, I: Iterator<Item = Line<'a>>> {
+    lines: I,
+    current: Option<Line<'a>>,
     tok: usize,
     last_line: usize,
 }
 
-impl<'a> Stream<'a> {
+impl<'a, I: Iterator<Item = Line<'a>>> Stream<'a, I> {
+    fn new(mut lines: I, last_line: usize) -> Self {
+        let current = lines.next();
+        Stream { lines, current, tok: 0, last_line }
+    }
+
     fn peek(&self) -> Option<(usize, Tok<'a>)> {
-        self.lines.get(self.line).map(|l| (l.number, l.toks[self.tok]))
+        self.current.as_ref().map(|l| (l.number, l.toks[self.tok]))
     }
 
     fn next(&mut self) -> Option<(usize, Tok<'a>)> {
         let t = self.peek()?;
         self.tok += 1;
-        if self.tok >= self.lines[self.line].toks.len() {
-            self.line += 1;
+        if self.current.as_ref().is_some_and(|l| self.tok >= l.toks.len()) {
+            self.current = self.lines.next();
             self.tok = 0;
         }
         Some(t)
@@ -116,6 +122,20 @@ impl<'a> Stream<'a> {
         }
         Ok(n)
     }
+
+    /// The next token: `word` followed by a value, written `word value` or `wordvalue`.
+    fn value_after(&mut self, cx: &Ctx<'_>, word: &str, expected: &str) -> Result<(usize, Tok<'a>), ParseError> {
+        let (n, t) = self.take(cx, &format!("'{word}'"))?;
+        if t.text.eq_ignore_ascii_case(word) {
+            return self.take(cx, expected);
+        }
+        match t.text.get(..word.len()) {
+            Some(head) if head.eq_ignore_ascii_case(word) && t.text.len() > word.len() => {
+                Ok((n, Tok { text: &t.text[word.len()..], column: t.column + word.chars().count() }))
+            }
+            _ => Err(cx.err(n, t.column, K::Unexpected { expected: format!("'{word}'"), found: t.text.into() })),
+        }
+    }
 }
 
 fn channel_dof(s: &str) -> Option<Dof> {
@@ -131,7 +151,7 @@ fn channel_dof(s: &str) -> Option<Dof> {
 }
 
 /// Parses the HIERARCHY section: the joints in file order.
-fn hierarchy(cx: &Ctx<'_>, s: &mut Stream<'_>) -> Result<Vec<Node>, ParseError> {
+fn hierarchy<'a, I: Iterator<Item = Line<'a>>>(cx: &Ctx<'_>, s: &mut Stream<'a, I>) -> Result<Vec<Node>, ParseError> {
     s.expect(cx, "HIERARCHY")?;
     s.expect(cx, "ROOT")?;
     let mut nodes: Vec<Node> = Vec::new();
@@ -273,25 +293,15 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
     let text = lex::text(file, bytes)?;
     let cx = Ctx { file };
     let last_line = text.split('\n').count();
-    let lines: Vec<Line<'_>> = lex::lines(text).collect();
-    if lines.is_empty() {
+    let mut s = Stream::new(lex::lines(text), last_line);
+    if s.peek().is_none() {
         return Err(cx.err(1, 0, K::Empty { expected: "a BVH hierarchy and motion" }).into());
     }
-    let mut s = Stream { lines, line: 0, tok: 0, last_line };
     let nodes = hierarchy(&cx, &mut s)?;
     let n_channels: usize = nodes.iter().map(|n| n.channels.len()).sum();
-    // MOTION, Frames: N, Frame Time: t.
+    // MOTION, Frames: N, Frame Time: t (each colon may touch its value).
     s.expect(&cx, "MOTION")?;
-    let (n_line, t) = s.take(&cx, "'Frames:'")?;
-    let frames_tok = if t.text.eq_ignore_ascii_case("Frames:") {
-        s.take(&cx, "a frame count")?
-    } else if let Some(rest) = t.text.strip_prefix("Frames:").filter(|r| !r.is_empty()) {
-        (n_line, Tok { text: rest, column: t.column + 7 })
-    } else {
-        return Err(cx
-            .err(n_line, t.column, K::Unexpected { expected: "'Frames:'".into(), found: t.text.into() })
-            .into());
-    };
+    let frames_tok = s.value_after(&cx, "Frames:", "a frame count")?;
     let n_frames: usize =
         frames_tok.1.text.parse().ok().filter(|&f| (1..=MAX_BVH_FRAMES).contains(&f)).ok_or_else(|| {
             cx.err(
@@ -304,8 +314,7 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
             )
         })?;
     s.expect(&cx, "Frame")?;
-    s.expect(&cx, "Time:")?;
-    let (ft_line, ft) = s.take(&cx, "a frame time")?;
+    let (ft_line, ft) = s.value_after(&cx, "Time:", "a frame time")?;
     let frame_time_s = cx.num(ft_line, ft, "a frame time in seconds")?;
     if !(FRAME_TIME_RANGE_S.0..=FRAME_TIME_RANGE_S.1).contains(&frame_time_s) {
         return Err(cx
@@ -322,56 +331,56 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
             )
             .into());
     }
-    // The frames: one line each, after the frame time's line.
+    // The frames: one line each, after the frame time's line, parsed as they come.
     if s.tok != 0 {
-        let l = &s.lines[s.line];
-        let t = l.toks[s.tok];
+        let (n, t) = s.peek().unwrap_or((ft_line, ft));
         return Err(cx
             .err(
-                l.number,
+                n,
                 t.column,
                 K::Unexpected { expected: "the end of the line after the frame time".into(), found: t.text.into() },
             )
             .into());
     }
-    let frame_lines = &s.lines[s.line..];
-    if frame_lines.len() < n_frames {
-        return Err(cx
-            .err(
-                last_line,
-                0,
-                K::UnexpectedEof {
-                    expected: format!("{n_frames} frames as 'Frames:' says; the file ends after {}", frame_lines.len()),
-                },
-            )
-            .into());
-    }
-    if let Some(extra) = frame_lines.get(n_frames) {
-        return Err(cx
-            .err(
-                extra.number,
-                extra.toks[0].column,
-                K::Unexpected {
-                    expected: format!("the end of the file after the {n_frames} frame(s) 'Frames:' declares"),
-                    found: extra.toks[0].text.into(),
-                },
-            )
-            .into());
-    }
     let mut values = Vec::with_capacity(n_frames.saturating_mul(n_channels).min(1 << 24));
-    for (k, l) in frame_lines.iter().enumerate() {
+    let mut frames = 0usize;
+    for l in s.current.take().into_iter().chain(s.lines) {
+        if frames == n_frames {
+            return Err(cx
+                .err(
+                    l.number,
+                    l.toks[0].column,
+                    K::Unexpected {
+                        expected: format!("the end of the file after the {n_frames} frame(s) 'Frames:' declares"),
+                        found: l.toks[0].text.into(),
+                    },
+                )
+                .into());
+        }
         if l.toks.len() != n_channels {
             return Err(cx
                 .err(
                     l.number,
                     l.toks.get(n_channels).map_or(0, |t| t.column),
-                    K::Arity { keyword: format!("frame {}", k + 1), expected: n_channels, found: l.toks.len() },
+                    K::Arity { keyword: format!("frame {}", frames + 1), expected: n_channels, found: l.toks.len() },
                 )
                 .into());
         }
         for t in &l.toks {
             values.push(cx.num(l.number, *t, "a channel value")?);
         }
+        frames += 1;
+    }
+    if frames < n_frames {
+        return Err(cx
+            .err(
+                last_line,
+                0,
+                K::UnexpectedEof {
+                    expected: format!("{n_frames} frames as 'Frames:' says; the file ends after {frames}"),
+                },
+            )
+            .into());
     }
     let unit = match opts.length_unit_mm {
         Some(u) if !(u.is_finite() && (1e-6..=1e6).contains(&u)) => {

@@ -106,6 +106,11 @@ pub enum ParseErrorKind {
         /// Offset of the first invalid byte.
         byte_offset: usize,
     },
+    /// Lines end in a carriage return alone (old Mac OS), which the line-based formats cannot read.
+    #[error(
+        "the lines end in a carriage return alone (old Mac OS line endings); convert them to LF or CRLF (e.g. `tr '\\r' '\\n'`)"
+    )]
+    CrOnlyLineEnds,
     /// The file has no content.
     #[error("file is empty; expected {expected}")]
     Empty {

@@ -17,13 +17,20 @@ pub(crate) struct Line<'a> {
     pub toks: Vec<Tok<'a>>,
 }
 
-/// Turns bytes into text, rejecting anything that is not UTF-8.
+/// Turns bytes into text, rejecting anything that is not UTF-8 and lines
+/// that end in a carriage return alone (they would read as one long line).
 pub(crate) fn text<'a>(file: &str, bytes: &'a [u8]) -> Result<&'a str, ParseError> {
-    std::str::from_utf8(bytes).map_err(|e| {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
         let off = e.valid_up_to();
         let line = bytes[..off].iter().filter(|&&b| b == b'\n').count() + 1;
         ParseError { file: file.to_owned(), line, column: 0, kind: ParseErrorKind::NotUtf8 { byte_offset: off } }
-    })
+    })?;
+    // A CR that no LF follows, before the first LF (or in a file without one): CR-only line ends.
+    let first_lf = bytes.iter().position(|&b| b == b'\n').unwrap_or(bytes.len());
+    if bytes[..first_lf].iter().enumerate().any(|(i, &b)| b == b'\r' && i + 1 < first_lf) {
+        return Err(ParseError { file: file.to_owned(), line: 1, column: 0, kind: ParseErrorKind::CrOnlyLineEnds });
+    }
+    Ok(text)
 }
 
 /// Splits a line into tokens. `(` and `)` count as whitespace so that ASF

@@ -218,15 +218,11 @@ pub const MAX_INPUT_BYTES: u64 = 256 << 20;
 /// Reads a whole file, but at most `max_bytes`: a larger file (or an endless
 /// one such as `/dev/zero`) is an error, not an allocation without bound.
 pub fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
-    use std::io::Read as _;
-    let io = |source| Error::Io { path: path.to_owned(), source };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::new();
-    file.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
-    if bytes.len() as u64 > max_bytes {
-        return Err(Error::TooLarge { path: path.to_owned(), max_bytes });
-    }
-    Ok(bytes)
+    cpg_io::read_bounded(path, max_bytes).map_err(|e| match e {
+        cpg_io::Error::Io { path, source } => Error::Io { path, source },
+        cpg_io::Error::TooLarge { path, max_bytes } => Error::TooLarge { path, max_bytes },
+        other => Error::Io { path: path.to_owned(), source: std::io::Error::other(other.to_string()) },
+    })
 }
 
 impl Skeleton {

@@ -6,12 +6,11 @@
 //! documents it; the stubs are `python/cpg/_cpg.pyi`.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use numpy::ndarray::Array2;
-use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
-    PyUntypedArrayMethods,
-};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
@@ -20,8 +19,9 @@ use cpg_lab::{Config, ControlSchedule};
 use cpg_mocap::{BvhOptions, Skeleton};
 use cpg_reservoir::TrainedCpg;
 
+// The module named is the one pickle finds it in: `cpg.CpgError` (re-exported there).
 pyo3::create_exception!(
-    _cpg,
+    cpg,
     CpgError,
     pyo3::exceptions::PyValueError,
     "An error of the cpg library: a file that cannot be read or parsed, an input of the wrong shape or out of range, a model that diverged. The message is the library's."
@@ -30,6 +30,114 @@ pyo3::create_exception!(
 /// The library error as a Python exception.
 fn err(e: impl std::fmt::Display) -> PyErr {
     CpgError::new_err(e.to_string())
+}
+
+/// A whole number argument within `lo..=hi`: a `TypeError` when it is not an
+/// integer, a `CpgError` naming the range when it is out of it (never an
+/// `OverflowError`, whatever its size or sign).
+fn int_arg(v: &Bound<'_, PyAny>, name: &str, lo: u64, hi: u64) -> PyResult<u64> {
+    if v.is_instance_of::<PyBool>() || !v.is_instance_of::<PyInt>() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "{name}: expected an integer, got {}",
+            v.get_type().name()?
+        )));
+    }
+    match v.extract::<u64>() {
+        Ok(x) if (lo..=hi).contains(&x) => Ok(x),
+        _ => Err(err(format!("{name} = {}: expected a whole number from {lo} to {hi}", short(&v.str()?.to_string())))),
+    }
+}
+
+/// Text clipped for a message (a Python int can have a million digits).
+fn short(s: &str) -> String {
+    if s.chars().count() <= 40 { s.to_owned() } else { format!("{}…", s.chars().take(40).collect::<String>()) }
+}
+
+/// A sample rate argument: finite, within the library's range.
+fn rate_arg(rate_hz: f64, name: &str) -> PyResult<f64> {
+    use cpg_reservoir::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ};
+    if !(rate_hz.is_finite() && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&rate_hz)) {
+        return Err(err(format!("{name} = {rate_hz}: expected {MIN_SAMPLE_RATE_HZ} to {MAX_SAMPLE_RATE_HZ} Hz")));
+    }
+    Ok(rate_hz)
+}
+
+/// Anything NumPy reads as numbers (arrays of any dtype, lists of lists,
+/// objects with `__array__`), as float64 values with their shape, converted
+/// once; a 1-D input is one channel. Errors name the argument and the shape.
+fn matrix(py: Python<'_>, v: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<f64>, usize, usize)> {
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (v, "float64")).map_err(|e| {
+        err(format!("{name}: expected numbers NumPy can read as float64 (time × channels): {}", e.value(py)))
+    })?;
+    let a = np.call_method1("ascontiguousarray", (a,))?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    let a = match shape.as_slice() {
+        [n] => a.call_method1("reshape", ((*n, 1usize),))?,
+        [_, _] => a,
+        other => {
+            return Err(err(format!(
+                "{name}: an array of shape ({}); expected time × channels (or one channel as a 1-D array){}",
+                other.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "),
+                if other.len() == 3 { "; give several segments as segments=[...]" } else { "" }
+            )));
+        }
+    };
+    let arr: PyReadonlyArray2<'_, f64> = a.extract()?;
+    Ok(rows(&arr))
+}
+
+/// One value per `n` (a control or an output row) from anything NumPy reads as numbers.
+fn vector(py: Python<'_>, v: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<f64>> {
+    let np = py.import("numpy")?;
+    let a = np
+        .call_method1("asarray", (v, "float64"))
+        .map_err(|e| err(format!("{name}: expected {n} numbers NumPy can read as float64: {}", e.value(py))))?;
+    let flat: Vec<f64> = np.call_method1("ravel", (a,))?.call_method0("tolist")?.extract()?;
+    if flat.len() != n {
+        return Err(err(format!("{name}: {} value(s) for {n}", flat.len())));
+    }
+    Ok(flat)
+}
+
+/// The largest magnitude of a value given as data, as in motion files.
+const MAX_VALUE: f64 = cpg_mocap::MAX_MAGNITUDE;
+
+/// Runs `work` on its own thread while this one answers signals: Ctrl-C
+/// raises `KeyboardInterrupt` within 0.1 s. `work` is told through its flag
+/// and stops at its next check; work that cannot stop finishes unseen.
+fn interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce(&std::sync::atomic::AtomicBool) -> T + Send + 'static,
+) -> PyResult<T> {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let cancel = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let flag = cancel.clone();
+    std::thread::Builder::new()
+        .name("cpg-work".into())
+        .spawn(move || {
+            let _ = tx.send(work(&flag));
+        })
+        .map_err(err)?;
+    let mut rx = rx;
+    loop {
+        let (got, back) = py.detach(move || (rx.recv_timeout(std::time::Duration::from_millis(50)), rx));
+        rx = back;
+        match got {
+            Ok(v) => return Ok(v),
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(err("the work stopped without a result (it panicked)"));
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    cancel.store(true, Ordering::SeqCst);
+                    return Err(e);
+                }
+            }
+        }
+    }
 }
 
 /// The project's HOAP-2 description and channel maps, carried in the package.
@@ -74,18 +182,46 @@ fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyA
     })
 }
 
+/// The deepest nesting of a configuration dict taken (TOML tables nest a few levels).
+const MAX_CONFIG_DEPTH: usize = 32;
+
 /// A Python dict (with lists, numbers, strings, booleans, paths; None means
-/// "leave the key out") as a TOML value.
+/// "leave the key out") as a TOML value. A dict or list nested deeper than
+/// [`MAX_CONFIG_DEPTH`], or that contains itself, is an error.
 fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<Option<toml::Value>> {
+    to_toml_at(v, key, &mut Vec::new())
+}
+
+fn to_toml_at(v: &Bound<'_, PyAny>, key: &str, path: &mut Vec<usize>) -> PyResult<Option<toml::Value>> {
     if v.is_none() {
         return Ok(None);
     }
+    let name = if key.is_empty() { "the configuration".to_owned() } else { format!("`{key}`") };
+    let container = v.is_instance_of::<PyDict>() || v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>();
+    if container {
+        let id = v.as_ptr() as usize;
+        if path.contains(&id) {
+            return Err(err(format!("{name} contains itself")));
+        }
+        if path.len() >= MAX_CONFIG_DEPTH {
+            return Err(err(format!("{name}: nested more than {MAX_CONFIG_DEPTH} levels deep")));
+        }
+        path.push(id);
+    }
+    let out = to_toml_inner(v, key, path);
+    if container {
+        path.pop();
+    }
+    out
+}
+
+fn to_toml_inner(v: &Bound<'_, PyAny>, key: &str, path: &mut Vec<usize>) -> PyResult<Option<toml::Value>> {
     if let Ok(d) = v.cast::<PyDict>() {
         let mut t = toml::Table::new();
         for (k, x) in d.iter() {
             let k: String = k.extract().map_err(|_| err(format!("{key}: keys must be strings")))?;
-            let path = if key.is_empty() { k.clone() } else { format!("{key}.{k}") };
-            if let Some(val) = to_toml(&x, &path)? {
+            let p = if key.is_empty() { k.clone() } else { format!("{key}.{k}") };
+            if let Some(val) = to_toml_at(&x, &p, path)? {
                 t.insert(k, val);
             }
         }
@@ -107,10 +243,10 @@ fn to_toml(v: &Bound<'_, PyAny>, key: &str) -> PyResult<Option<toml::Value>> {
     if let Ok(p) = v.extract::<PathBuf>() {
         return Ok(Some(toml::Value::String(p.display().to_string())));
     }
-    if let Ok(l) = v.try_iter() {
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
         let mut items = Vec::new();
-        for (k, x) in l.enumerate() {
-            if let Some(val) = to_toml(&x?, &format!("{key}[{k}]"))? {
+        for (k, x) in v.try_iter()?.enumerate() {
+            if let Some(val) = to_toml_at(&x?, &format!("{key}[{k}]"), path)? {
                 items.push(val);
             }
         }
@@ -147,6 +283,38 @@ struct Motion {
 
 #[pymethods]
 impl Motion {
+    /// A motion from arrays: `values` frames × channels (anything NumPy reads
+    /// as numbers), `channels` their names (`bone.dof`: `lfemur.rx`), at
+    /// `rate_hz`. It has no skeleton (no forward kinematics, no files).
+    #[new]
+    fn new(py: Python<'_>, values: &Bound<'_, PyAny>, channels: Vec<String>, rate_hz: f64) -> PyResult<Motion> {
+        let rate_hz = rate_arg(rate_hz, "rate_hz")?;
+        let (v, n, d) = matrix(py, values, "values")?;
+        if channels.len() != d {
+            return Err(err(format!("channels: {} names for {d} columns", channels.len())));
+        }
+        if let Some(i) = v.iter().position(|x| !(x.is_finite() && x.abs() <= MAX_VALUE)) {
+            return Err(err(format!(
+                "values: frame {}, channel {} is {}; expected finite values within ±{MAX_VALUE}",
+                i / d.max(1),
+                i % d.max(1),
+                v[i]
+            )));
+        }
+        let parsed = channels
+            .iter()
+            .map(|c| {
+                cpg_mocap::Channel::parse(c)
+                    .ok_or_else(|| err(format!("channels: {c:?} is not a channel name (bone.dof, e.g. lfemur.rx)")))
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        if n == 0 {
+            return Err(err("values: no frames"));
+        }
+        let motion = cpg_mocap::Motion::new(parsed, v, rate_hz).map_err(err)?;
+        Ok(Motion { motion, skeleton: None, format: "arrays".into() })
+    }
+
     /// Frames × channels, float64 (degrees for rotations, skeleton units for translations).
     #[getter]
     fn values<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
@@ -210,7 +378,9 @@ impl Motion {
         })
     }
 
-    /// Writes the motion as BVH (lengths in centimetres) or AMC, by the extension.
+    /// Writes the motion as BVH (lengths in centimetres) or AMC, by the
+    /// extension, atomically: the file holds the old motion or the new one,
+    /// never half of one; a missing directory is an error.
     fn save(&self, path: PathBuf) -> PyResult<()> {
         let sk = self.skeleton.as_ref().ok_or_else(|| err("this motion has no skeleton to write it with"))?;
         let text = if cpg_mocap::is_bvh(&path) {
@@ -219,7 +389,7 @@ impl Motion {
             cpg_mocap::write_amc(sk, &self.motion)
         }
         .map_err(err)?;
-        std::fs::write(&path, text).map_err(|e| err(format!("{}: {e}", path.display())))
+        cpg_io::write_file(&path, text.as_bytes()).map_err(err)
     }
 
     fn __repr__(&self) -> String {
@@ -243,6 +413,7 @@ fn read_motion(
     rate_hz: Option<f64>,
     bvh_unit_mm: Option<f64>,
 ) -> PyResult<Motion> {
+    let rate_hz = rate_hz.map(|r| rate_arg(r, "rate_hz")).transpose()?;
     let r = py
         .detach(|| {
             cpg_mocap::read_recording(&path, skeleton.as_deref(), rate_hz, &BvhOptions { length_unit_mm: bvh_unit_mm })
@@ -260,8 +431,23 @@ fn read_motion(
 /// A trained CPG.
 #[pyclass(module = "cpg._cpg", name = "Model", frozen)]
 struct Model {
-    m: TrainedCpg,
+    m: Arc<TrainedCpg>,
 }
+
+impl Model {
+    fn of(m: TrainedCpg) -> Model {
+        Model { m: Arc::new(m) }
+    }
+}
+
+/// Reservoirs at least this large run one free run split over two cores by
+/// default (`threads=None`): below it, the exchange between the cores costs
+/// more than the rows each saves (the bench's "one stream split over both
+/// cores" against the one-core step).
+pub const SPLIT_MIN_NEURONS: usize = 1500;
+
+/// Steps between checks for Ctrl-C in a long free run.
+const CHECK_EVERY_STEPS: usize = 4096;
 
 /// Control values for `steps` steps: None (the first teacher's setting, or
 /// none for a model without controls), a sequence of one value per input
@@ -396,41 +582,69 @@ impl Model {
     }
 
     /// Free run of `steps` steps under `controls`: steps × channels, in the
-    /// channels' units (degrees for rotations).
-    #[pyo3(signature = (steps, controls=None))]
+    /// channels' units (degrees for rotations). `threads`: 1 runs on one core,
+    /// 2 or more split the run by rows (the same bits); by default a
+    /// reservoir of 1,500 neurons or more is split over two cores, a smaller
+    /// one is not. Ctrl-C stops it.
+    #[pyo3(signature = (steps, controls=None, threads=None))]
     fn generate<'py>(
         &self,
         py: Python<'py>,
-        steps: usize,
+        steps: &Bound<'py, PyAny>,
         controls: Option<&Bound<'py, PyAny>>,
+        threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let d = self.m.outputs.len();
-        if steps == 0 || steps.saturating_mul(d) > 1 << 27 {
-            return Err(err(format!("steps = {steps}: expected 1 to {} for {d} channels", (1usize << 27) / d.max(1))));
-        }
+        let steps = int_arg(steps, "steps", 1, ((1u64 << 27) / d.max(1) as u64).max(1))? as usize;
+        let threads = match threads {
+            Some(t) => int_arg(t, "threads", 1, 64)? as usize,
+            None if self.m.reservoir.n_neurons() >= SPLIT_MIN_NEURONS => 2,
+            None => 1,
+        };
         let s = schedule(&self.m, controls)?;
-        let y = py
-            .detach(|| {
-                let mut y = cpg_lab::measure::free_run(&self.m, &s, steps, None)?;
+        let m = self.m.clone();
+        let y = interruptible(py, move |cancel| -> Result<Option<Vec<f64>>, String> {
+            if threads > 1 {
+                let spec = cpg_lab::measure::RunSpec { model: &m, controls: &s, steps, push: None, noise: None };
+                let mut y = cpg_lab::measure::free_runs_on(&[spec], threads)
+                    .map_err(|e| e.to_string())?
+                    .pop()
+                    .unwrap_or_else(|| Ok(Vec::new()))
+                    .map_err(|e| e.to_string())?;
                 for (k, v) in y.iter_mut().enumerate() {
-                    let o = &self.m.outputs[k % d];
+                    let o = &m.outputs[k % d];
                     *v = *v * o.std + o.mean;
                 }
-                Ok::<_, cpg_lab::Error>(y)
-            })
-            .map_err(err)?;
+                return Ok(Some(y));
+            }
+            // One core: step by step (the same bits as a batched run), checking for Ctrl-C.
+            let mut g = cpg_reservoir::Generator::new(&m);
+            let mut u = vec![0.0; m.controls.len()];
+            let rate = m.provenance.sample_rate_hz;
+            let mut y = Vec::with_capacity(steps * d);
+            for k in 0..steps {
+                if k % CHECK_EVERY_STEPS == 0 && cancel.load(Ordering::Relaxed) {
+                    return Ok(None);
+                }
+                s.fill(k, rate, &mut u);
+                y.extend_from_slice(g.step(&u).map_err(|e| e.to_string())?);
+            }
+            Ok(Some(y))
+        })?
+        .map_err(err)?
+        .ok_or_else(|| err("interrupted"))?;
         array2(py, y, steps, d)
     }
 
     /// A step-by-step generator at the model's start state (for control loops).
     fn generator(&self) -> Generator {
-        Generator { g: cpg_reservoir::Generator::new(&self.m), d: self.m.outputs.len(), u: self.m.controls.len() }
+        Generator { g: cpg_reservoir::Generator::new(&self.m), m: self.m.clone() }
     }
 
     /// A stream at `rate_hz` ticks per second (interpolating between the
     /// model's steps); with `robot=True`, each tick is the HOAP-2's joint
     /// angles (radians) within its position, velocity and acceleration limits.
-    #[pyo3(signature = (rate_hz, robot=false, urdf=None, map=None, acceleration_rad_s2=cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2))]
+    #[pyo3(signature = (rate_hz, robot=false, urdf=None, map=None, acceleration_rad_s2=100.0))]
     fn stream(
         &self,
         rate_hz: f64,
@@ -464,7 +678,8 @@ impl Model {
             Some(c) => Some(schedule(&self.m, Some(c))?),
             None => None,
         };
-        let j = py.detach(|| cpg_lab::measure::judge(&self.m, n, s.as_ref())).map_err(err)?;
+        let m = self.m.clone();
+        let j = interruptible(py, move |_| cpg_lab::measure::judge(&m, n, s.as_ref()))?.map_err(err)?;
         to_py(py, &serde_json::to_value(j).map_err(err)?)
     }
 
@@ -474,7 +689,7 @@ impl Model {
     /// velocity limit and the acceleration bound. A dict: `joints`, `rate_hz`,
     /// `positions_rad`, `velocities_rad_s`, `accelerations_rad_s2` (frames ×
     /// joints) and `limits` (what each bound changed, per joint).
-    #[pyo3(signature = (seconds, rate_hz=None, controls=None, urdf=None, map=None, acceleration_rad_s2=cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2))]
+    #[pyo3(signature = (seconds, rate_hz=None, controls=None, urdf=None, map=None, acceleration_rad_s2=100.0))]
     #[allow(clippy::too_many_arguments)] // the Python signature: keyword arguments with defaults
     fn hoap2<'py>(
         &self,
@@ -489,8 +704,13 @@ impl Model {
         let (robot, chmap) = load_robot(urdf, map.as_deref())?;
         let s = schedule(&self.m, controls)?;
         steps_for(seconds, self.m.provenance.sample_rate_hz, self.m.outputs.len())?;
-        let target = cpg_lab::stream::RobotTarget { robot: &robot, map: &chmap, acceleration_rad_s2 };
-        let t = py.detach(|| cpg_lab::stream::joint_trajectory(&self.m, &s, seconds, rate_hz, target)).map_err(err)?;
+        let rate_hz = rate_hz.map(|r| rate_arg(r, "rate_hz")).transpose()?;
+        let m = self.m.clone();
+        let t = interruptible(py, move |_| {
+            let target = cpg_lab::stream::RobotTarget { robot: &robot, map: &chmap, acceleration_rad_s2 };
+            cpg_lab::stream::joint_trajectory(&m, &s, seconds, rate_hz, target)
+        })?
+        .map_err(err)?;
         trajectory_dict(py, &t)
     }
 
@@ -508,7 +728,13 @@ impl Model {
     #[staticmethod]
     #[pyo3(signature = (data, name="<bytes>"))]
     fn from_bytes(data: &[u8], name: &str) -> PyResult<Model> {
-        Ok(Model { m: TrainedCpg::from_bytes(data, Path::new(name)).map_err(err)? })
+        Ok(Model::of(TrainedCpg::from_bytes(data, Path::new(name)).map_err(err)?))
+    }
+
+    /// Pickling: the model file's bytes.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let f = py.import("cpg._cpg")?.getattr("_model_from_bytes")?;
+        Ok((f, (self.to_bytes(py)?,)))
     }
 
     fn __repr__(&self) -> String {
@@ -555,45 +781,73 @@ fn trajectory_dict<'py>(py: Python<'py>, t: &cpg_hoap2::JointTrajectory) -> PyRe
 #[pyclass(module = "cpg._cpg", name = "Generator")]
 struct Generator {
     g: cpg_reservoir::Generator,
-    d: usize,
-    u: usize,
+    m: Arc<TrainedCpg>,
 }
 
-fn control_values(c: Option<PyReadonlyArray1<'_, f64>>, u: usize) -> PyResult<Vec<f64>> {
+/// One value per control input from anything NumPy reads as numbers (None: none).
+fn control_values(py: Python<'_>, c: Option<&Bound<'_, PyAny>>, u: usize) -> PyResult<Vec<f64>> {
     match c {
         None if u == 0 => Ok(Vec::new()),
         None => Err(err(format!("the model has {u} control input(s): give step(control)"))),
-        Some(a) => {
-            let v: Vec<f64> = a.as_array().iter().copied().collect();
-            if v.len() != u {
-                return Err(err(format!("control: {} values for {u} control input(s)", v.len())));
-            }
-            Ok(v)
-        }
+        Some(a) => vector(py, a, "control", u),
     }
+}
+
+/// The output array `out`: float64, one dimension of `d` values, writable.
+fn check_out<'py>(o: &Bound<'py, PyAny>, d: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let describe = |o: &Bound<'_, PyAny>| -> String {
+        match (o.getattr("dtype"), o.getattr("shape")) {
+            (Ok(t), Ok(s)) => format!(
+                "a {} array of shape {}",
+                t.str().map(|x| x.to_string()).unwrap_or_default(),
+                s.str().map(|x| x.to_string()).unwrap_or_default()
+            ),
+            _ => format!("a {}", o.get_type().name().map(|x| x.to_string()).unwrap_or_default()),
+        }
+    };
+    let a = o.cast::<PyArray1<f64>>().map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "out: expected a float64 array of shape ({d},), got {}",
+            describe(o)
+        ))
+    })?;
+    if a.len() != d {
+        return Err(err(format!("out: expected a float64 array of shape ({d},), got {}", describe(o))));
+    }
+    Ok(a.clone())
 }
 
 #[pymethods]
 impl Generator {
     /// One step: the output (channels, in their units) for `control` (one
-    /// value per control input). With `out` (a float64 array of one value per
-    /// channel) the output is written there and `out` is returned.
+    /// value per control input; a list or any array). With `out` (a float64
+    /// array of one value per channel) the output is written there and `out`
+    /// is returned.
     #[pyo3(signature = (control=None, out=None))]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        control: Option<PyReadonlyArray1<'py, f64>>,
-        out: Option<Bound<'py, PyArray1<f64>>>,
+        control: Option<&Bound<'py, PyAny>>,
+        out: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let c = control_values(control, self.u)?;
-        let y = self.g.step(&c).map_err(err)?;
-        match out {
+        let d = self.m.outputs.len();
+        let c = control_values(py, control, self.m.controls.len())?;
+        let target = out.map(|o| check_out(o, d)).transpose()?;
+        if let Err(e) = self.g.step(&c) {
+            return Err(err(if self.g.diverged() {
+                format!(
+                    "the generator diverged at step {}: {e}; reset() starts it again from the model's start state",
+                    self.g.steps()
+                )
+            } else {
+                e.to_string()
+            }));
+        }
+        let y = self.g.output();
+        match target {
             Some(o) => {
-                if o.len() != self.d {
-                    return Err(err(format!("out has {} values; the model has {} channels", o.len(), self.d)));
-                }
                 let mut w = o.try_readwrite().map_err(err)?;
-                let slice = w.as_slice_mut().map_err(err)?;
+                let slice = w.as_slice_mut().map_err(|_| err("out: expected a contiguous float64 array"))?;
                 slice.copy_from_slice(y);
                 drop(w);
                 Ok(o)
@@ -602,11 +856,50 @@ impl Generator {
         }
     }
 
+    /// Back to the model's start state (after a divergence, or to start over).
+    fn reset(&mut self) {
+        self.g = cpg_reservoir::Generator::new(&self.m);
+    }
+
     /// Steps taken.
     #[getter]
     fn steps(&self) -> u64 {
         self.g.steps()
     }
+
+    /// Whether a step diverged (then only `reset()` brings it back).
+    #[getter]
+    fn diverged(&self) -> bool {
+        self.g.diverged()
+    }
+
+    /// Pickling: the model's bytes, the reservoir state and the steps taken.
+    #[allow(clippy::type_complexity)] // the shape pickle asks for
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>, Vec<f64>, u64, bool))> {
+        let f = py.import("cpg._cpg")?.getattr("_generator_from_state")?;
+        let (x, steps) = self.g.state();
+        Ok((f, (PyBytes::new(py, &self.m.to_bytes().map_err(err)?), x, steps, self.g.diverged())))
+    }
+}
+
+/// A model from its file's bytes (what a pickled `Model` is made from again).
+#[pyfunction]
+fn _model_from_bytes(data: &[u8]) -> PyResult<Model> {
+    Model::from_bytes(data, "<pickle>")
+}
+
+/// A generator from a pickled one's model, state and steps.
+#[pyfunction]
+fn _generator_from_state(data: &[u8], state: Vec<f64>, steps: u64, diverged: bool) -> PyResult<Generator> {
+    let m = Arc::new(TrainedCpg::from_bytes(data, Path::new("<pickle>")).map_err(err)?);
+    if diverged {
+        return Err(err("the pickled generator had diverged; reset() it before pickling"));
+    }
+    let g = cpg_reservoir::Generator::resume(&m, &state, steps).map_err(err)?;
+    Ok(Generator { g, m })
 }
 
 /// A model at any tick rate, optionally as HOAP-2 joint angles.
@@ -619,14 +912,14 @@ struct Stream {
 
 #[pymethods]
 impl Stream {
-    /// One tick: the channels (or joint angles, radians) for `control`.
+    /// One tick: the channels (or joint angles, radians) for `control` (a list or any array).
     #[pyo3(signature = (control=None))]
     fn tick<'py>(
         &mut self,
         py: Python<'py>,
-        control: Option<PyReadonlyArray1<'py, f64>>,
+        control: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let c = control_values(control, self.u)?;
+        let c = control_values(py, control, self.u)?;
         Ok(PyArray1::from_slice(py, self.t.tick(&c).map_err(err)?))
     }
 
@@ -652,7 +945,7 @@ impl Stream {
 /// Reads a model file.
 #[pyfunction]
 fn load(path: PathBuf) -> PyResult<Model> {
-    Ok(Model { m: TrainedCpg::load(&path).map_err(err)? })
+    Ok(Model::of(TrainedCpg::load(&path).map_err(err)?))
 }
 
 /// Trains a model as `cpg train` does, from a configuration file (a path)
@@ -670,13 +963,12 @@ fn train(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<Model> {
         let p: PathBuf = config.extract().map_err(|_| err("config: expected a path or a dict"))?;
         Config::load(&p).map_err(err)?
     };
-    let m = py
-        .detach(|| {
-            let p = cpg_lab::prepare::prepare(&c)?;
-            cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
-        })
-        .map_err(err)?;
-    Ok(Model { m })
+    let m = interruptible(py, move |_| {
+        let p = cpg_lab::prepare::prepare(&c)?;
+        cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
+    })?
+    .map_err(err)?;
+    Ok(Model::of(m))
 }
 
 /// The configuration `fit` starts from: our protocol of experiments/e1.toml
@@ -691,54 +983,87 @@ fn fit_defaults(segments: usize) -> toml::Table {
     text.parse().unwrap_or_default()
 }
 
-/// Trains a model on arrays: `y` is one array (time × channels) or a list of
-/// them (segments, each with its own control values); z-scoring is inside.
+/// Whether `name` can be a control input's name (the configuration's rule and the model file's).
+fn check_control_name(name: &str) -> Result<(), String> {
+    cpg_reservoir::check_name(name)?;
+    if name.chars().any(|c| c == '=' || c.is_whitespace()) {
+        return Err(format!("control name {name:?}: expected a word without '=' or spaces"));
+    }
+    Ok(())
+}
+
+/// Trains a model on arrays: `y` is one segment (time × channels, anything
+/// NumPy reads as numbers; a 1-D array is one channel), or `segments` a list
+/// of them, each with its own control values; z-scoring is inside.
 #[pyfunction]
-#[pyo3(signature = (y, rate_hz, controls=None, channels=None, control_names=None, seed=1, config=None))]
+#[pyo3(signature = (y=None, rate_hz=None, controls=None, channels=None, control_names=None, seed=None, config=None, segments=None))]
 #[allow(clippy::too_many_arguments)] // the Python signature: keyword arguments with defaults
 fn fit(
     py: Python<'_>,
-    y: &Bound<'_, PyAny>,
-    rate_hz: f64,
+    y: Option<&Bound<'_, PyAny>>,
+    rate_hz: Option<f64>,
     controls: Option<&Bound<'_, PyAny>>,
     channels: Option<Vec<String>>,
     control_names: Option<Vec<String>>,
-    seed: u64,
+    seed: Option<&Bound<'_, PyAny>>,
     config: Option<&Bound<'_, PyDict>>,
+    segments: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Model> {
-    // The segments, checked at once.
-    let arrays: Vec<PyReadonlyArray2<'_, f64>> = if let Ok(a) = y.extract::<PyReadonlyArray2<'_, f64>>() {
-        vec![a]
-    } else if y.is_instance_of::<PyList>() || y.is_instance_of::<PyTuple>() {
-        y.try_iter()?
-            .enumerate()
-            .map(|(k, a)| {
-                a?.extract::<PyReadonlyArray2<'_, f64>>()
-                    .map_err(|_| err(format!("y[{k}]: expected a 2-D float64 array (time × channels)")))
-            })
-            .collect::<PyResult<_>>()?
-    } else {
-        return Err(err("y: expected a 2-D float64 array (time × channels) or a list of them"));
+    let rate_hz = rate_arg(rate_hz.ok_or_else(|| err("rate_hz: required (frames per second)"))?, "rate_hz")?;
+    let seed = match seed {
+        Some(s) => int_arg(s, "seed", 0, u64::MAX)?,
+        None => 1,
     };
-    if arrays.is_empty() {
-        return Err(err("y: no segments"));
-    }
-    let segs: Vec<(Vec<f64>, usize, usize)> = arrays.iter().map(rows).collect();
+    // The segments, each converted once and checked at once.
+    let segs: Vec<(Vec<f64>, usize, usize)> = match (y, segments) {
+        (Some(y), None) => vec![matrix(py, y, "y")?],
+        (None, Some(list)) => {
+            let n = list.len().map_err(|_| err("segments: expected a list of arrays"))?;
+            if n == 0 || n > cpg_lab::config::MAX_SEGMENTS {
+                return Err(err(format!("segments: {n} arrays; expected 1 to {}", cpg_lab::config::MAX_SEGMENTS)));
+            }
+            list.try_iter()?
+                .enumerate()
+                .map(|(k, a)| matrix(py, &a?, &format!("segments[{k}]")))
+                .collect::<PyResult<_>>()?
+        }
+        (Some(_), Some(_)) => return Err(err("give y (one segment) or segments=[...], not both")),
+        (None, None) => return Err(err("give y (time × channels) or segments=[...] (several)")),
+    };
+    let which = |k: usize| if segments.is_some() { format!("segments[{k}]") } else { "y".to_owned() };
     let d = segs[0].2;
-    for (k, (v, n, w)) in segs.iter().enumerate() {
-        if *w != d {
-            return Err(err(format!("y[{k}] has {w} channels; y[0] has {d}")));
-        }
-        if *n < 4 {
-            return Err(err(format!("y[{k}] has {n} frames; a rhythm needs many more")));
-        }
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            return Err(err(format!("y[{k}]: value at frame {}, channel {} is not finite", i / w, i % w)));
-        }
-    }
     let names = channels.unwrap_or_else(|| (0..d).map(|k| format!("y{k}")).collect());
     if names.len() != d {
         return Err(err(format!("channels: {} names for {d} columns", names.len())));
+    }
+    for (k, n) in names.iter().enumerate() {
+        cpg_reservoir::check_name(n).map_err(|e| err(format!("channels[{k}]: {e}")))?;
+        if names[..k].contains(n) {
+            return Err(err(format!("channels[{k}]: {n:?} is named twice")));
+        }
+    }
+    let mut total = 0usize;
+    for (k, (v, n, w)) in segs.iter().enumerate() {
+        if *w != d {
+            return Err(err(format!("{} has {w} channels; {} has {d}", which(k), which(0))));
+        }
+        if *n < 4 {
+            return Err(err(format!("{} has {n} frames; a rhythm needs many more", which(k))));
+        }
+        if let Some(i) = v.iter().position(|x| !(x.is_finite() && x.abs() <= MAX_VALUE)) {
+            return Err(err(format!(
+                "{}: the value at frame {}, channel {} ({}) is {}; expected finite values within ±{MAX_VALUE}",
+                which(k),
+                i / w,
+                i % w,
+                names[i % w],
+                v[i]
+            )));
+        }
+        total += n;
+    }
+    if total > cpg_lab::prepare::MAX_TRAINING_SAMPLES {
+        return Err(err(format!("{total} frames in all; at most {}", cpg_lab::prepare::MAX_TRAINING_SAMPLES)));
     }
     let ctl: Vec<Vec<f64>> = match controls {
         None => vec![Vec::new(); segs.len()],
@@ -756,6 +1081,9 @@ fn fit(
     if ctl.iter().any(|c| c.len() != u) || cnames.len() != u {
         return Err(err("controls: every segment needs one value per control input (and one name each)"));
     }
+    for (k, n) in cnames.iter().enumerate() {
+        check_control_name(n).map_err(|e| err(format!("control_names[{k}]: {e}")))?;
+    }
     // Inside, the columns are channels c0.rx, c1.rx, … (the motion format's `bone.dof`); the model carries the user's names.
     let inner: Vec<cpg_mocap::Channel> =
         (0..d).map(|k| cpg_mocap::Channel { bone: format!("c{k}"), dof: cpg_mocap::Dof::Rx }).collect();
@@ -766,7 +1094,7 @@ fn fit(
         .map(|(k, c)| {
             let mut t = toml::Table::new();
             t.insert("motion".into(), toml::Value::String(format!("y[{k}]")));
-            t.insert("label".into(), toml::Value::String(format!("y[{k}]")));
+            t.insert("label".into(), toml::Value::String(which(k)));
             t.insert("controls".into(), toml::Value::Array(c.iter().map(|v| toml::Value::Float(*v)).collect()));
             toml::Value::Table(t)
         })
@@ -782,16 +1110,10 @@ fn fit(
     merge(&mut table, [("data".to_owned(), toml::Value::Table(data))].into_iter().collect());
     merge(
         &mut table,
-        [
-            (
-                "reservoir".to_owned(),
-                toml::Value::Table([("seed".to_owned(), toml::Value::Integer(seed as i64))].into_iter().collect()),
-            ),
-            (
-                "output".to_owned(),
-                toml::Value::Table([("model".to_owned(), toml::Value::String("fit.cpg".into()))].into_iter().collect()),
-            ),
-        ]
+        [(
+            "output".to_owned(),
+            toml::Value::Table([("model".to_owned(), toml::Value::String("fit.cpg".into()))].into_iter().collect()),
+        )]
         .into_iter()
         .collect(),
     );
@@ -805,22 +1127,31 @@ fn fit(
         }
         merge(&mut table, over);
     }
-    let c = config_from_table(&table, "<fit>")?;
+    let mut c = config_from_table(&table, "<fit>")?;
+    // Set here, not in the TOML: a seed may be any 64-bit whole number.
+    c.reservoir.seed = seed;
     let parts: Vec<cpg_mocap::Motion> = segs
         .into_iter()
         .map(|(v, _, _)| cpg_mocap::Motion::new(inner.clone(), v, rate_hz))
         .collect::<Result<_, _>>()
         .map_err(err)?;
-    let mut m = py
-        .detach(|| {
-            let p = cpg_lab::prepare::prepare_recorded(&c, cpg_lab::prepare::Recorded { skeleton: None, parts })?;
-            cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
-        })
-        .map_err(err)?;
+    let user = names.clone();
+    let mut m = interruptible(py, move |_| {
+        let p = cpg_lab::prepare::prepare_recorded(&c, cpg_lab::prepare::Recorded { skeleton: None, parts })?;
+        cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
+    })?
+    .map_err(|e| {
+        // The library names the inner columns; the user knows their own names.
+        let mut msg = e.to_string();
+        for (k, n) in user.iter().enumerate().rev() {
+            msg = msg.replace(&format!("c{k}.rx"), n);
+        }
+        err(msg)
+    })?;
     for (o, n) in m.outputs.iter_mut().zip(&names) {
         o.name.clone_from(n);
     }
-    Ok(Model { m })
+    Ok(Model::of(m))
 }
 
 /// The HOAP-2 URDF the package carries (the project's `assets/hoap2/hoap2.urdf`).
@@ -855,18 +1186,19 @@ fn robot_joints<'py>(py: Python<'py>, urdf: Option<PathBuf>) -> PyResult<Vec<Bou
 /// `rate_hz`: clamped to the URDF's ranges and kept within the velocity
 /// limits and the acceleration bound. A dict as `Model.hoap2` returns.
 #[pyfunction]
-#[pyo3(signature = (values, channels, rate_hz, urdf=None, map=None, acceleration_rad_s2=cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2))]
+#[pyo3(signature = (values, channels, rate_hz, urdf=None, map=None, acceleration_rad_s2=100.0))]
 fn map_hoap2<'py>(
     py: Python<'py>,
-    values: PyReadonlyArray2<'py, f64>,
+    values: &Bound<'py, PyAny>,
     channels: Vec<String>,
     rate_hz: f64,
     urdf: Option<PathBuf>,
     map: Option<String>,
     acceleration_rad_s2: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let rate_hz = rate_arg(rate_hz, "rate_hz")?;
     let (robot, chmap) = load_robot(urdf, map.as_deref())?;
-    let (v, _, d) = rows(&values);
+    let (v, _, d) = matrix(py, values, "values")?;
     if d != channels.len() {
         return Err(err(format!("{} channel names for {d} columns", channels.len())));
     }
@@ -874,6 +1206,9 @@ fn map_hoap2<'py>(
         py.detach(|| chmap.apply(&robot, &channels, &v, rate_hz)?.limit(&robot, acceleration_rad_s2)).map_err(err)?;
     trajectory_dict(py, &t)
 }
+
+// The signatures' literal default (100.0, shown by help()) is the library's bound.
+const _: () = assert!(cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 == 100.0);
 
 #[pymodule]
 fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -889,6 +1224,10 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hoap2_urdf, m)?)?;
     m.add_function(wrap_pyfunction!(robot_joints, m)?)?;
     m.add_function(wrap_pyfunction!(map_hoap2, m)?)?;
+    m.add_function(wrap_pyfunction!(_model_from_bytes, m)?)?;
+    m.add_function(wrap_pyfunction!(_generator_from_state, m)?)?;
+    m.add("DEFAULT_ACCELERATION_RAD_S2", cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)?;
+    m.add("SPLIT_MIN_NEURONS", SPLIT_MIN_NEURONS)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -149,6 +149,41 @@ impl Generator {
         self.steps
     }
 
+    /// The reservoir state (one value per neuron, exactly, whatever the
+    /// precision) and the steps taken: what [`Generator::resume`] continues from.
+    pub fn state(&self) -> (Vec<f64>, u64) {
+        let x = match &self.inner {
+            Inner::F32(g) => g.x.as_slice()[..g.engine.shared.n].iter().map(|v| f64::from(*v)).collect(),
+            Inner::F64(g) => g.x.as_slice()[..g.engine.shared.n].to_vec(),
+        };
+        (x, self.steps)
+    }
+
+    /// A generator for `model` that continues from `state` after `steps`
+    /// steps (from [`Generator::state`] of a generator of the same model): its
+    /// next steps are bit for bit those the original would have taken.
+    pub fn resume(model: &TrainedCpg, state: &[f64], steps: u64) -> Result<Generator> {
+        let n = model.reservoir.n_neurons();
+        if state.len() != n || state.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Shape(format!(
+                "a state of {} values for {n} neurons (expected finite values)",
+                state.len()
+            )));
+        }
+        let mut g = Generator::new(model);
+        match &mut g.inner {
+            Inner::F32(x) => x.x = x.engine.state(state),
+            Inner::F64(x) => x.x = x.engine.state(state),
+        }
+        g.steps = steps;
+        Ok(g)
+    }
+
+    /// Whether a step diverged (the generator then refuses further steps).
+    pub fn diverged(&self) -> bool {
+        self.diverged
+    }
+
     /// One step of free run. `control` has one value per control input.
     pub fn step(&mut self, control: &[f64]) -> Result<&[f64]> {
         self.advance(control, None)
@@ -159,6 +194,11 @@ impl Generator {
     /// perturbation. Returns the network's own (unforced) output.
     pub fn step_clamped(&mut self, control: &[f64], clamp_normalised: &[f64]) -> Result<&[f64]> {
         self.advance(control, Some(clamp_normalised))
+    }
+
+    /// The last output, in the units of the training data (what the last [`Generator::step`] returned).
+    pub fn output(&self) -> &[f64] {
+        &self.out
     }
 
     /// The last output in normalised units (what the network sees).

@@ -46,7 +46,7 @@ pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;
 pub use model::{
     FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,
-    TrainedCpg,
+    TrainedCpg, check_name,
 };
 pub use orbit::{OrbitStay, orbit_nmse};
 pub use real::Real;

@@ -18,7 +18,6 @@
 //! truncated copy or a flipped bit give a clear error, never a panic or a
 //! half-built model. After decoding, every shape is checked again.
 
-use std::io::Write;
 use std::path::Path;
 
 use cpg_regression::Readout;
@@ -39,6 +38,18 @@ const OLDEST_VERSION: u32 = 2;
 pub const MAX_SAMPLE_RATE_HZ: f64 = 100_000.0;
 /// The smallest sample rate a model may have, Hz.
 pub const MIN_SAMPLE_RATE_HZ: f64 = 1.0;
+
+/// Whether `name` can name a channel or a control input of a model file:
+/// 1 to 128 characters, no comma, quote or control character (CSV headers
+/// and control lines carry the names). The error says what is expected.
+pub fn check_name(name: &str) -> std::result::Result<(), String> {
+    if name.is_empty() || name.chars().count() > 128 || name.chars().any(|c| c.is_control() || c == ',' || c == '"') {
+        return Err(format!(
+            "channel or control name {name:?}: expected 1 to 128 characters, no comma, quote or control character"
+        ));
+    }
+    Ok(())
+}
 /// Largest magnitude of an output's mean or standard deviation.
 const MAX_NORMALISATION: f64 = 1e6;
 const HEADER: usize = 28;
@@ -281,11 +292,7 @@ impl TrainedCpg {
             }
         }
         for name in self.outputs.iter().map(|o| &o.name).chain(&self.controls) {
-            if name.is_empty() || name.len() > 128 || name.chars().any(|c| c.is_control() || c == ',' || c == '"') {
-                return Err(Error::Shape(format!(
-                    "channel or control name {name:?}: expected 1 to 128 characters, no comma, quote or control character"
-                )));
-            }
+            check_name(name).map_err(Error::Shape)?;
         }
         let rate = self.provenance.sample_rate_hz;
         if !(rate.is_finite() && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&rate)) {
@@ -411,58 +418,53 @@ impl TrainedCpg {
     /// Writes the model to `path` atomically (a temporary file beside it, then a rename).
     ///
     /// A symlink is followed and its target replaced, the link kept; a path
-    /// that names a device, FIFO or directory is refused (write
-    /// [`TrainedCpg::to_bytes`] there yourself).
+    /// that names a device, FIFO or directory, or whose directory does not
+    /// exist, is refused (write [`TrainedCpg::to_bytes`] there yourself).
     pub fn save(&self, path: &Path) -> Result<()> {
         let bytes = self.to_bytes()?;
-        let given = path;
-        let io = |source| Error::Io { path: given.to_owned(), source };
-        let resolved;
-        let path = match std::fs::symlink_metadata(path) {
-            Ok(m) if m.file_type().is_symlink() => {
-                resolved = std::fs::canonicalize(path).map_err(io)?;
-                resolved.as_path()
-            }
-            _ => path,
-        };
-        if let Ok(m) = std::fs::metadata(path)
-            && !m.is_file()
-        {
-            return Err(io(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a regular file: a model is saved only to a regular file",
-            )));
-        }
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::create_dir_all(dir).map_err(io)?;
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let result = (|| {
-            let mut f = std::fs::File::create(&tmp)?;
-            f.write_all(&bytes)?;
-            f.sync_all()?;
-            std::fs::rename(&tmp, path)
-        })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result.map_err(io)
+        cpg_io::write_file(path, &bytes).map_err(|e| io_error(path, e))
     }
 
-    /// Reads a model file.
-    ///
-    /// At most [`MAX_MODEL_BYTES`] are read.
+    /// Reads a model file: the header first, then exactly the payload it
+    /// declares (at most [`MAX_MODEL_BYTES`]), so that neither a device that
+    /// never ends nor a file that lies about its size is read past its header.
     pub fn load(path: &Path) -> Result<TrainedCpg> {
         use std::io::Read as _;
-        let io = |source| Error::Io { path: path.to_owned(), source };
-        let mut bytes = Vec::new();
-        std::fs::File::open(path).map_err(io)?.take(MAX_MODEL_BYTES + 1).read_to_end(&mut bytes).map_err(io)?;
-        if bytes.len() as u64 > MAX_MODEL_BYTES {
-            return Err(Error::ModelFile {
-                path: path.to_owned(),
-                reason: format!("larger than {MAX_MODEL_BYTES} bytes, the most a model file holds"),
-            });
+        let bad = |reason: String| Error::ModelFile { path: path.to_owned(), reason };
+        let mut f = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let head = cpg_io::read_bounded_from((&mut f).take(HEADER as u64), path, HEADER as u64)
+            .map_err(|e| io_error(path, e))?;
+        if head.len() < 8 || &head[..8] != MAGIC {
+            return Err(bad("not a cpg model file (the first 8 bytes are not `CPGMODEL`)".into()));
         }
+        if head.len() < HEADER {
+            return Err(bad(format!("truncated: {} bytes, the header alone has {HEADER}", head.len())));
+        }
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&head[12..20]);
+        let len = u64::from_le_bytes(w);
+        if len > MAX_MODEL_BYTES - HEADER as u64 {
+            return Err(bad(format!(
+                "the header announces {len} payload bytes; a model file holds at most {MAX_MODEL_BYTES}"
+            )));
+        }
+        // One byte more than announced tells a padded file from a whole one.
+        let rest = cpg_io::read_bounded_from(f, path, len + 1).map_err(|e| match e {
+            cpg_io::Error::TooLarge { .. } => {
+                bad(format!("padded: more bytes follow the {len} payload bytes the header announces"))
+            }
+            other => io_error(path, other),
+        })?;
+        let mut bytes = head;
+        bytes.extend_from_slice(&rest);
         TrainedCpg::from_bytes(&bytes, path)
+    }
+}
+
+/// A `cpg_io` error as this crate's.
+fn io_error(path: &Path, e: cpg_io::Error) -> Error {
+    match e {
+        cpg_io::Error::Io { path, source } => Error::Io { path, source },
+        other => Error::ModelFile { path: path.to_owned(), reason: other.to_string() },
     }
 }

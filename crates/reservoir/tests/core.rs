@@ -390,3 +390,30 @@ fn teacher_noise_is_seeded_and_the_rule_can_prefer_larger_penalties() {
     assert_eq!(chosen, best, "with no tolerance the best score wins");
     assert!(train(&res, &sine_data(), &TrainSettings { teacher_noise: -1.0, ..quick_settings() }).is_err());
 }
+
+/// A generator resumed from another's state continues bit for bit as the
+/// original would have, in both precisions.
+#[test]
+fn a_resumed_generator_continues_bit_for_bit() {
+    for precision in [Precision::F32, Precision::F64] {
+        let m = sine_model(40, 3, precision);
+        let mut a = Generator::new(&m);
+        for _ in 0..137 {
+            a.step(&[]).unwrap();
+        }
+        let (x, steps) = a.state();
+        assert_eq!((x.len(), steps), (40, 137));
+        let mut b = Generator::resume(&m, &x, steps).unwrap();
+        for _ in 0..500 {
+            let ya = a.step(&[]).unwrap().to_vec();
+            let yb = b.step(&[]).unwrap().to_vec();
+            assert_eq!(
+                ya.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                yb.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+        }
+        assert_eq!(b.steps(), 637);
+        assert!(Generator::resume(&m, &x[..10], 0).is_err());
+        assert!(Generator::resume(&m, &[f64::NAN; 40], 0).is_err());
+    }
+}

@@ -357,9 +357,8 @@ impl Scene {
                 })
                 .collect(),
         };
-        // serde_json cannot fail on these plain types; `</` is escaped so that
-        // no string can close the script element.
-        let json = serde_json::to_string(&data).unwrap_or_default().replace("</", "<\\/");
+        // serde_json cannot fail on these plain types.
+        let json = script_json(&serde_json::to_string(&data).unwrap_or_default());
         let mut notes = String::new();
         for n in &self.notes {
             let _ = writeln!(notes, "<p class=\"note\">{}</p>", escape(n));
@@ -396,6 +395,14 @@ fn fill(template: &str, values: &[(&str, &str)]) -> String {
     }
     out.push_str(rest);
     out
+}
+
+/// JSON text made safe inside a `<script>` element: every `<`, `>` and `&`
+/// (which JSON holds only inside strings) becomes its `\u` escape, so no
+/// name can close the element (`</script>`) or switch the HTML tokenizer into
+/// its escaped states (`<!--`, `<script`); `JSON.parse` reads the same strings.
+fn script_json(json: &str) -> String {
+    json.replace('<', "\\u003c").replace('>', "\\u003e").replace('&', "\\u0026")
 }
 
 /// Text for HTML: `&`, `<`, `>` and `"` escaped.

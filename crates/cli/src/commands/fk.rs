@@ -11,11 +11,12 @@ pub fn run(
     rate_hz: Option<f64>,
     bvh_unit_mm: Option<f64>,
 ) -> anyhow::Result<()> {
+    let format = super::output_format(None, output, &["csv", "npy"], "csv")?;
     let dest = crate::output::check_writable(output)?;
     let r =
         cpg_mocap::read_recording(motion, skeleton, rate_hz, &cpg_mocap::BvhOptions { length_unit_mm: bvh_unit_mm })?;
     let p = r.skeleton.forward_kinematics(&r.motion)?;
-    if crate::npy::is_npy(output) {
+    if format == "npy" {
         write_output(output, |w| {
             crate::npy::write_npy(w, &[p.n_frames(), p.names.len(), 3], p.points_mm.iter().flatten().copied())
         })?;

@@ -87,7 +87,7 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
                 config.display()
             );
         }
-        eprintln!("warning: {msg}; written anyway (--allow-unstable)");
+        eprintln!("warning: {}; written anyway (--allow-unstable)", crate::show(&msg.to_string()));
     }
     write_output(&c.output.model, |w| Ok(w.write_all(&model.to_bytes()?)?))?;
     if cpg_lab::train::penalty_at_edge(&model) {
@@ -207,20 +207,56 @@ fn unit_suffix(name: &str) -> &'static str {
     if name.ends_with(".rx") || name.ends_with(".ry") || name.ends_with(".rz") { "_deg" } else { "" }
 }
 
+/// Extensions that name an output format, and the format each names.
+const FORMAT_EXTENSIONS: [(&str, &str); 10] = [
+    ("csv", "csv"),
+    ("npy", "npy"),
+    ("amc", "amc"),
+    ("bvh", "bvh"),
+    ("json", "json"),
+    ("yaml", "yaml"),
+    ("yml", "yaml"),
+    ("html", "html"),
+    ("htm", "html"),
+    ("gif", "gif"),
+];
+
 /// The format an output is written in: `--format` when given, else the
-/// output's extension when it is one of `known`, else `default`.
-fn output_format(format: Option<&str>, output: &Path, known: &[&str], default: &str) -> anyhow::Result<String> {
+/// output's extension when it names one of `known`, else `default`. An
+/// extension that names another format is an error (`-o walk.gif` for CSV
+/// would give a file no GIF reader opens); other extensions are the user's.
+pub(crate) fn output_format(
+    format: Option<&str>,
+    output: &Path,
+    known: &[&str],
+    default: &str,
+) -> anyhow::Result<String> {
+    let named = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .and_then(|e| FORMAT_EXTENSIONS.iter().find(|(x, _)| *x == e).map(|(x, f)| ((*x).to_owned(), *f)));
     let f = match format {
         Some(f) => f.to_ascii_lowercase(),
-        None => output
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .filter(|e| known.contains(&e.as_str()))
-            .unwrap_or_else(|| default.to_owned()),
+        None => named.as_ref().map(|(_, f)| (*f).to_owned()).unwrap_or_else(|| default.to_owned()),
     };
     if !known.contains(&f.as_str()) {
-        bail!("--format {f}: expected {}", known.join(", "));
+        match (format, &named) {
+            (None, Some((ext, _))) => bail!(
+                "{}: .{ext} names a format this command does not write; it writes {} (give --format or another extension)",
+                output.display(),
+                known.join(", ")
+            ),
+            _ => bail!("--format {f}: expected {}", known.join(", ")),
+        }
+    }
+    if let Some((ext, g)) = &named
+        && *g != f
+    {
+        bail!(
+            "{}: the extension .{ext} is not the format written ({f}); name the file .{f} or give --format {g}",
+            output.display()
+        );
     }
     Ok(f)
 }
@@ -331,11 +367,7 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     // The sizes are checked before anything runs.
     steps(a.seconds, rate, m.outputs.len())?;
     cpg_hoap2::JointTrajectory::check_rate(a.rate_hz.unwrap_or(rate), a.seconds, map.entries.len())?;
-    let yml = a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("yml"));
-    let format = match a.format {
-        None if yml => "yaml".to_owned(),
-        f => output_format(f, a.output, &["csv", "npy", "json", "yaml"], "csv")?,
-    };
+    let format = output_format(a.format, a.output, &["csv", "npy", "json", "yaml"], "csv")?;
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
     let target = cpg_lab::stream::RobotTarget { robot: &robot, map: &map, acceleration_rad_s2: a.acceleration_rad_s2 };
@@ -383,7 +415,7 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         if a.strict {
             bail!("{msg}; nothing was written (--strict)");
         }
-        eprintln!("warning: {msg} (--strict makes this an error)");
+        eprintln!("warning: {} (--strict makes this an error)", crate::show(&msg.to_string()));
     }
     if format == "npy" {
         // frames × joints × (angle, velocity, acceleration).

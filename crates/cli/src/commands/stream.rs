@@ -32,14 +32,68 @@ enum Input {
     Closed,
 }
 
-/// Reads control lines from standard input and sends the controls after each;
-/// bad lines are reported and skipped.
+/// The longest control line read; a longer one is reported and skipped.
+pub const MAX_CONTROL_LINE_BYTES: usize = 4096;
+
+/// One line of `r`, at most `max` bytes kept: `Ok(None)` at the end of the
+/// input, `Ok(Some(Err(n)))` for a line of `n` bytes longer than `max` (read
+/// to its end and dropped, in bounded memory).
+fn bounded_line(r: &mut impl BufRead, max: usize, buf: &mut Vec<u8>) -> std::io::Result<Option<Result<(), usize>>> {
+    buf.clear();
+    let mut total = 0usize;
+    loop {
+        let chunk = r.fill_buf()?;
+        if chunk.is_empty() {
+            return Ok(if total == 0 {
+                None
+            } else if total > max {
+                Some(Err(total))
+            } else {
+                Some(Ok(()))
+            });
+        }
+        let (take, end) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(i) => (i + 1, true),
+            None => (chunk.len(), false),
+        };
+        if total < max {
+            let keep = take.min(max + 1 - total);
+            buf.extend_from_slice(&chunk[..keep]);
+        }
+        total += take;
+        r.consume(take);
+        if end {
+            return Ok(Some(if total > max + 1 { Err(total) } else { Ok(()) }));
+        }
+    }
+}
+
+/// Reads control lines from standard input and sends the controls after
+/// each. A bad line (not UTF-8, too long, not controls) is reported and
+/// skipped; reading goes on.
 fn read_controls(names: Vec<String>, start: Vec<f64>, tx: mpsc::Sender<Input>) {
     let stdin = std::io::stdin();
+    let mut r = stdin.lock();
     let mut current = start;
-    for (k, line) in stdin.lock().lines().enumerate() {
-        let Ok(line) = line else { break };
-        let text = line.trim();
+    let mut buf = Vec::with_capacity(MAX_CONTROL_LINE_BYTES + 2);
+    for k in 1.. {
+        let line = match bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf) {
+            Ok(None) => break,
+            Ok(Some(Err(n))) => {
+                eprintln!("warning: standard input line {k}: {n} bytes, longer than {MAX_CONTROL_LINE_BYTES}; ignored");
+                continue;
+            }
+            Ok(Some(Ok(()))) => buf.as_slice(),
+            Err(e) => {
+                eprintln!("warning: standard input: {e}; no more control values are read");
+                break;
+            }
+        };
+        let Ok(text) = std::str::from_utf8(line) else {
+            eprintln!("warning: standard input line {k}: not UTF-8 text; ignored");
+            continue;
+        };
+        let text = text.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
         }
@@ -49,7 +103,7 @@ fn read_controls(names: Vec<String>, start: Vec<f64>, tx: mpsc::Sender<Input>) {
                     return;
                 }
             }
-            Err(e) => eprintln!("warning: standard input line {}: {e}; ignored", k + 1),
+            Err(e) => eprintln!("warning: standard input line {k}: {}; ignored", crate::show(&e.to_string())),
         }
     }
     let _ = tx.send(Input::Closed);
@@ -122,6 +176,8 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     writeln!(out)?;
     out.flush()?;
 
+    // From here a signal ends the loop as its last tick would, with the report.
+    crate::output::interruptible();
     let (tx, rx) = mpsc::channel();
     let (names, start) = (m.controls.clone(), controls.clone());
     std::thread::spawn(move || read_controls(names, start, tx));
@@ -135,7 +191,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut tick = 0u64;
     loop {
-        if n_ticks.is_some_and(|n| tick >= n) || (n_ticks.is_none() && !stdin_open) {
+        if n_ticks.is_some_and(|n| tick >= n) || (n_ticks.is_none() && !stdin_open) || crate::output::interrupted() {
             break;
         }
         // New control values, if any arrived.
@@ -167,6 +223,12 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
         tick += 1;
     }
     // The report, on standard error.
+    if crate::output::interrupted() {
+        eprintln!(
+            "interrupted: {tick} line(s) of commands went to standard output ({:.3} s of the model at {rate} Hz), each complete",
+            tick as f64 / rate
+        );
+    }
     if s.pacing && tick > 0 {
         let mut seen = 0u64;
         let (mut p50, mut p99) = (0, 0);
@@ -190,6 +252,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     } else {
         eprintln!("{tick} ticks at {rate} Hz, unpaced (--no-pacing)");
     }
+    let interrupted = crate::output::interrupted();
     for (name, c) in ticker.limit_counts() {
         if c.position + c.velocity + c.acceleration > 0 {
             eprintln!(
@@ -201,5 +264,34 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
             );
         }
     }
+    if interrupted {
+        std::process::exit(130);
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_longer_than_the_bound_is_dropped_in_bounded_memory() {
+        let mut input: Vec<u8> = b"1,0\n".to_vec();
+        input.extend(std::iter::repeat_n(b'0', 10 * MAX_CONTROL_LINE_BYTES));
+        input.extend_from_slice(b"\nu_run=1\n\xff\xfe\n");
+        let mut r = std::io::BufReader::with_capacity(64, input.as_slice());
+        let mut buf = Vec::new();
+        assert_eq!(bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf).unwrap(), Some(Ok(())));
+        assert_eq!(buf, b"1,0\n");
+        assert_eq!(
+            bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf).unwrap(),
+            Some(Err(10 * MAX_CONTROL_LINE_BYTES + 1))
+        );
+        assert!(buf.len() <= MAX_CONTROL_LINE_BYTES + 1);
+        assert_eq!(bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf).unwrap(), Some(Ok(())));
+        assert_eq!(buf, b"u_run=1\n");
+        assert_eq!(bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf).unwrap(), Some(Ok(())));
+        assert!(std::str::from_utf8(&buf).is_err());
+        assert_eq!(bounded_line(&mut r, MAX_CONTROL_LINE_BYTES, &mut buf).unwrap(), None);
+    }
 }

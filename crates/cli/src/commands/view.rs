@@ -33,16 +33,7 @@ pub struct View<'a> {
 }
 
 pub fn run(a: View<'_>) -> anyhow::Result<()> {
-    let format = match a.format {
-        Some(f) => f.to_owned(),
-        None => match a.output.extension().and_then(|e| e.to_str()) {
-            Some("gif") => "gif".into(),
-            _ => "html".into(),
-        },
-    };
-    if !["html", "gif"].contains(&format.as_str()) {
-        bail!("--format {format}: expected html (a page to open in a browser) or gif");
-    }
+    let format = super::output_format(a.format, a.output, &["html", "gif"], "html")?;
     if !(a.yaw_deg.is_finite() && (-360.0..=360.0).contains(&a.yaw_deg)) {
         bail!("--yaw-deg {}: expected an angle from -360 to 360", a.yaw_deg);
     }

@@ -12,11 +12,16 @@ files are those of the ``cpg`` command line.
     >>> y = model.generate(1200)                  # 10 s, shape (1200, 1), degrees
     >>> g = model.generator(); g.step()           # one step, shape (1,)
 
-Errors of the library are raised as :class:`CpgError` (a ``ValueError``)
-with the library's message. Long work releases the GIL.
+Arrays go in as anything NumPy reads as numbers (float64 inside). Errors of
+the library are raised as :class:`CpgError` (a ``ValueError``) with the
+library's message; arguments of the wrong type raise ``TypeError``. Long work
+releases the GIL and stops at Ctrl-C (``KeyboardInterrupt``). Models,
+generators and errors can be pickled (to worker processes, for example).
 """
 
 from ._cpg import (
+    DEFAULT_ACCELERATION_RAD_S2,
+    SPLIT_MIN_NEURONS,
     CpgError,
     Generator,
     Model,
@@ -33,6 +38,8 @@ from ._cpg import (
 )
 
 __all__ = [
+    "DEFAULT_ACCELERATION_RAD_S2",
+    "SPLIT_MIN_NEURONS",
     "CpgError",
     "Generator",
     "Model",

@@ -11,12 +11,18 @@ _F64 = npt.NDArray[np.float64]
 _Controls = Union[Sequence[float], npt.ArrayLike, None]
 
 __version__: str
+DEFAULT_ACCELERATION_RAD_S2: float
+SPLIT_MIN_NEURONS: int
+_ArrayLike = npt.ArrayLike
 
 class CpgError(ValueError):
     """An error of the cpg library, with the library's message."""
 
 class Motion:
     """A motion: frames × channels at a sample rate, with its skeleton when read from a file."""
+
+    def __init__(self, values: _ArrayLike, channels: Sequence[str], rate_hz: float) -> None:
+        """A motion from arrays (frames × channels, names ``bone.dof``); it has no skeleton."""
 
     @property
     def values(self) -> _F64:
@@ -41,7 +47,7 @@ class Motion:
     def select(self, channels: Sequence[str]) -> "Motion":
         """The motion with only these channels, in this order."""
     def save(self, path: _Path) -> None:
-        """Writes BVH (``.bvh``, centimetres) or AMC."""
+        """Writes BVH (``.bvh``, centimetres) or AMC, atomically."""
 
 def read_motion(
     path: _Path,
@@ -55,15 +61,20 @@ def read_motion(
 class Generator:
     """A model run one step at a time from its start state (allocation-free in Rust)."""
 
-    def step(self, control: Optional[_F64] = None, out: Optional[_F64] = None) -> _F64:
-        """One step: the channels for ``control`` (one value per control input); into ``out`` if given."""
+    def step(self, control: Optional[_ArrayLike] = None, out: Optional[_F64] = None) -> _F64:
+        """One step: the channels for ``control`` (one value per control input); into ``out`` (float64, one value
+        per channel) if given."""
+    def reset(self) -> None:
+        """Back to the model's start state."""
     @property
     def steps(self) -> int: ...
+    @property
+    def diverged(self) -> bool: ...
 
 class Stream:
     """A model at any tick rate (ticks between its steps interpolated), optionally as HOAP-2 joint angles."""
 
-    def tick(self, control: Optional[_F64] = None) -> _F64:
+    def tick(self, control: Optional[_ArrayLike] = None) -> _F64:
         """One tick: channels, or joint angles (rad) within every limit."""
     @property
     def columns(self) -> list[str]: ...
@@ -94,9 +105,9 @@ class Model:
     @property
     def teachers(self) -> list[dict[str, Any]]:
         """label, controls, period_steps, cycle (period × channels, in the channels' units)."""
-    def generate(self, steps: int, controls: _Controls = None) -> _F64:
+    def generate(self, steps: int, controls: _Controls = None, threads: Optional[int] = None) -> _F64:
         """Free run: steps × channels. ``controls``: one value per input, or steps × inputs (the last row held);
-        default: the first teacher's setting."""
+        default: the first teacher's setting. ``threads``: 1 or more (default: 2 from SPLIT_MIN_NEURONS neurons)."""
     def generator(self) -> Generator: ...
     def stream(
         self,
@@ -130,16 +141,17 @@ def train(config: Union[_Path, dict[str, Any]]) -> Model:
     """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields."""
 
 def fit(
-    y: Union[_F64, Sequence[_F64]],
-    rate_hz: float,
+    y: Optional[_ArrayLike] = None,
+    rate_hz: Optional[float] = None,
     controls: Optional[Sequence[Sequence[float]]] = None,
     channels: Optional[Sequence[str]] = None,
     control_names: Optional[Sequence[str]] = None,
-    seed: int = 1,
+    seed: Optional[int] = None,
     config: Optional[dict[str, Any]] = None,
+    segments: Optional[Sequence[_ArrayLike]] = None,
 ) -> Model:
-    """Trains on arrays (time × channels), one per segment, each with its control values; z-scoring inside.
-    ``config`` overrides the data, reservoir and training sections (docs/config.md)."""
+    """Trains on one segment ``y`` (time × channels; 1-D is one channel) or on ``segments``, each with its control
+    values; z-scoring inside. ``config`` overrides the data, reservoir and training sections (docs/config.md)."""
 
 def hoap2_urdf() -> str:
     """The HOAP-2 URDF the package carries."""
@@ -148,7 +160,7 @@ def robot_joints(urdf: Optional[_Path] = None) -> list[dict[str, Any]]:
     """Joints of a URDF: name, parent, child, lower_rad, upper_rad, velocity_rad_s."""
 
 def map_hoap2(
-    values: _F64,
+    values: _ArrayLike,
     channels: Sequence[str],
     rate_hz: float,
     urdf: Optional[_Path] = None,
