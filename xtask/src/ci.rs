@@ -115,24 +115,46 @@ pub fn layering() -> anyhow::Result<()> {
 }
 
 pub fn run() -> anyhow::Result<()> {
-    cmd("cargo", &["fmt", "--all", "--", "--check"], &[])?;
-    cmd("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"], &[])?;
-    layering()?;
-    cmd("cargo", &["doc", "--workspace", "--no-deps"], &[("RUSTDOCFLAGS", "-D warnings")])?;
-    test(&[])?;
-    crate::python::run()?;
-    // A fixed seed: the same inputs on every CI run from a fresh clone.
-    crate::fuzz::run(CI_FUZZ_SECONDS, &[], Some(1))
+    let mut times: Vec<(&str, f64)> = Vec::new();
+    let result = run_steps(&mut times);
+    // The times, whatever happened: what ran, and how long.
+    eprintln!("\ncargo xtask ci, time per step:");
+    for (name, s) in &times {
+        eprintln!("  {name:<34} {:>7.1} s", s);
+    }
+    eprintln!("  {:<34} {:>7.1} s", "total", times.iter().map(|t| t.1).sum::<f64>());
+    result
 }
 
-/// Seconds each fuzz target runs in `cargo xtask ci` (longer runs: `cargo xtask fuzz --seconds N`).
-const CI_FUZZ_SECONDS: u64 = 30;
+fn run_steps(times: &mut Vec<(&'static str, f64)>) -> anyhow::Result<()> {
+    let mut step = |name: &'static str, f: &mut dyn FnMut() -> anyhow::Result<()>| -> anyhow::Result<()> {
+        let t = std::time::Instant::now();
+        let r = f();
+        times.push((name, t.elapsed().as_secs_f64()));
+        r.with_context(|| format!("ci step `{name}`"))
+    };
+    step("fmt", &mut || cmd("cargo", &["fmt", "--all", "--", "--check"], &[]))?;
+    step("clippy", &mut || cmd("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"], &[]))?;
+    step("layering", &mut layering)?;
+    step("doc", &mut || cmd("cargo", &["doc", "--workspace", "--no-deps"], &[("RUSTDOCFLAGS", "-D warnings")]))?;
+    step("test (build and run)", &mut || test(&[]))?;
+    step("python (wheel and pytest)", &mut crate::python::run)?;
+    // A fixed seed: the same inputs on every CI run from a fresh clone.
+    step("fuzz (build and smoke run)", &mut || crate::fuzz::run(CI_FUZZ_SECONDS, &[], Some(1)))
+}
+
+/// Seconds each fuzz target runs in `cargo xtask ci`: a smoke run (the
+/// corpus and every kept crash replay in `cargo test`; long runs are
+/// `cargo xtask fuzz --seconds N`).
+const CI_FUZZ_SECONDS: u64 = 5;
 
 /// Fetches the data when it is missing, then runs every test.
 pub fn test(extra: &[String]) -> anyhow::Result<()> {
     let args = crate::fetch::Args::quiet_all();
     crate::fetch::run(&args).context("fetching the CMU data the tests need")?;
-    let mut a = vec!["test", "--workspace"];
+    // The release profile: the tests reuse what `cargo xtask` (which runs
+    // optimised) compiled, and the Python wheel reuses theirs.
+    let mut a = vec!["test", "--workspace", "--release"];
     a.extend(extra.iter().map(String::as_str));
     cmd("cargo", &a, &[])
 }

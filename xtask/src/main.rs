@@ -35,7 +35,8 @@ enum Command {
     /// The checks CI runs, in this order: fmt, clippy (warnings denied), the
     /// crate layering rules (checked with `cargo tree`), the docs (warnings
     /// denied), every test (after fetching the data), the Python package's
-    /// tests (`cargo xtask python`), and each fuzz target for 30 s.
+    /// tests (`cargo xtask python`), and each fuzz target for 5 s (a smoke run;
+    /// `cargo xtask fuzz` runs them longer); it prints each step's time at the end.
     Ci,
     /// Fetch the data if needed, then run every test of the workspace.
     Test {

@@ -28,30 +28,39 @@ pub fn venv() -> anyhow::Result<std::path::PathBuf> {
 }
 
 /// Builds and installs the package, then runs pytest on `crates/python/tests`
-/// (the `cpg` command they compare with is built first).
+/// (the `cpg` command they compare with is built first). The wheel is built
+/// by maturin in the workspace's target directory and release profile, so it
+/// reuses what `cargo xtask` and the tests already compiled.
 pub fn run() -> anyhow::Result<()> {
     crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the tests need")?;
     let venv = venv()?;
     let py = venv.join("bin").join("python").display().to_string();
-    cmd("cargo", &["build", "--quiet", "-p", "cpg-cli"], &[])?;
+    let venv_dir = venv.display().to_string();
+    cmd("cargo", &["build", "--release", "--quiet", "-p", "cpg-cli"], &[])?;
+    let wheels = crate::root().join("target").join("wheels");
+    let _ = std::fs::remove_dir_all(&wheels);
+    let maturin = venv.join("bin").join("maturin").display().to_string();
+    let out = wheels.display().to_string();
+    cmd(
+        &maturin,
+        &["build", "--release", "--quiet", "-m", "crates/python/Cargo.toml", "--out", &out],
+        &[("VIRTUAL_ENV", venv_dir.as_str())],
+    )
+    .context("building the cpg wheel (maturin)")?;
+    let wheel = std::fs::read_dir(&wheels)
+        .with_context(|| format!("reading {out}"))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.extension().is_some_and(|x| x == "whl"))
+        .with_context(|| format!("maturin wrote no wheel into {out}"))?;
+    let wheel = wheel.display().to_string();
     cmd(
         &py,
-        &[
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-            "--force-reinstall",
-            "--no-deps",
-            "./crates/python",
-        ],
+        &["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--force-reinstall", "--no-deps", &wheel],
         &[],
     )
-    .context("building and installing the cpg Python package (maturin)")?;
-    let bin = crate::root().join("target").join("debug").join("cpg");
+    .context("installing the cpg wheel")?;
+    let bin = crate::root().join("target").join("release").join("cpg");
     let bin = bin.display().to_string();
-    let venv_dir = venv.display().to_string();
     cmd(
         &py,
         &["-m", "pytest", "-q", "crates/python/tests"],

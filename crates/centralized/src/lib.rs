@@ -284,7 +284,7 @@ impl CentralizedNet {
         let y = Mat::from_fn(t, d, |k, i| x[k * d + i]);
         let path = RidgePath::new(a.as_ref(), y.as_ref())?;
         // A tiny penalty only for conditioning: relative 1e-10 of the largest Gram eigenvalue.
-        let top = path.gram_eigenvalues().last().copied().unwrap_or(1.0);
+        let top = path.largest_gram_eigenvalue();
         net.readout = path.solve(1e-10 * top.max(1e-300))?;
         Ok((net, a))
     }

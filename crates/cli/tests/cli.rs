@@ -43,6 +43,8 @@ fn inspect_motion_prints_channel_statistics() {
 #[test]
 fn fk_writes_31_points_per_frame() {
     let dir = tempfile::tempdir().unwrap();
+    // The directory must exist: -o creates none (hardening2.rs checks the refusal).
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
     let out = dir.path().join("sub/points.csv");
     let o = cpg(&[
         "fk".as_ref(),

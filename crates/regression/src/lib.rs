@@ -22,6 +22,7 @@ mod error;
 mod ridge;
 mod sweep;
 
+pub mod fixed;
 pub use error::{Error, Result};
 pub use ridge::{Readout, RidgePath, nmse, ridge_direct};
 pub use sweep::{PenaltyGrid, sweep, sweep_chunked};

@@ -5,6 +5,7 @@ use faer::{Accum, Mat, MatRef, Par, Side};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::fixed::{Tridiagonal, at_b, padded};
 
 /// A linear readout `y = W·x + b`: `weights` is `n_outputs × n_features`, row-major.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -66,7 +67,7 @@ struct Centred {
     y_mean: Vec<f64>,
 }
 
-fn centred(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<Centred> {
+fn check_shapes(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<()> {
     if x.nrows() != y.nrows() {
         return Err(Error::Shape(format!("{} feature rows but {} target rows", x.nrows(), y.nrows())));
     }
@@ -80,7 +81,11 @@ fn centred(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<Centred> {
         )));
     }
     check_finite(x, "feature matrix")?;
-    check_finite(y, "target matrix")?;
+    check_finite(y, "target matrix")
+}
+
+fn centred(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<Centred> {
+    check_shapes(x, y)?;
     let x_mean = column_means(x);
     let y_mean = column_means(y);
     let xc = Mat::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] - x_mean[j]);
@@ -112,30 +117,57 @@ fn readout(w: MatRef<'_, f64>, x_mean: &[f64], y_mean: &[f64]) -> Readout {
 /// The data of a ridge problem, factorised once for every penalty.
 ///
 /// With `X̃ = X − mean(X)` and `Ỹ = Y − mean(Y)`, the Gram matrix
-/// `X̃ᵀX̃ = V·diag(s)·Vᵀ` is eigendecomposed once. For a penalty `λ`,
-/// `W = V·diag(1/(s + λ))·VᵀX̃ᵀỸ` minimises `‖X̃W − Ỹ‖² + λ‖W‖²`, and the
-/// bias `b = mean(Y) − mean(X)·W` makes the fit exact in the mean, so the
-/// bias is not penalised.
+/// `X̃ᵀX̃ = Q·T·Qᵀ` is reduced once to tridiagonal form by Householder
+/// reflections. For a penalty `λ`, `W = Q·(T + λI)⁻¹·QᵀX̃ᵀỸ` minimises
+/// `‖X̃W − Ỹ‖² + λ‖W‖²`, and the bias `b = mean(Y) − mean(X)·W` makes the fit
+/// exact in the mean, so the bias is not penalised.
+///
+/// Every step runs in a fixed order ([`crate::fixed`]): the same data give
+/// the same bits on every machine, whatever its instruction set or caches.
 #[derive(Debug, Clone)]
 pub struct RidgePath {
-    eigvecs: Mat<f64>,
-    eigvals: Vec<f64>,
-    /// `Vᵀ X̃ᵀ Ỹ`, `n_features × n_outputs`.
-    projected: Mat<f64>,
+    tri: Tridiagonal,
+    /// `Qᵀ X̃ᵀ Ỹ`, row-major `n_features × n_outputs`.
+    projected: Vec<f64>,
     x_mean: Vec<f64>,
     y_mean: Vec<f64>,
     n_samples: usize,
 }
 
+/// `m` centred and laid out row-major with its width padded: (values, padded width).
+fn centred_rows(m: MatRef<'_, f64>, mean: &[f64]) -> (Vec<f64>, usize) {
+    let w = padded(m.ncols());
+    let mut out = vec![0.0; m.nrows() * w];
+    for i in 0..m.nrows() {
+        for j in 0..m.ncols() {
+            out[i * w + j] = m[(i, j)] - mean[j];
+        }
+    }
+    (out, w)
+}
+
 impl RidgePath {
     /// Factorises the problem for features `x` (`T × N`) and targets `y` (`T × D`).
     pub fn new(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Result<RidgePath> {
-        let Centred { gram, xty, x_mean, y_mean } = centred(x, y)?;
-        let n = x.ncols();
-        let (eigvecs, eigvals) = symmetric_eigen(&gram)?;
-        let mut projected = Mat::<f64>::zeros(n, y.ncols());
-        matmul(projected.as_mut(), Accum::Replace, eigvecs.transpose(), xty.as_ref(), 1.0, Par::Seq);
-        Ok(RidgePath { eigvecs, eigvals, projected, x_mean, y_mean, n_samples: x.nrows() })
+        check_shapes(x, y)?;
+        let x_mean = column_means(x);
+        let y_mean = column_means(y);
+        let (t, n, d) = (x.nrows(), x.ncols(), y.ncols());
+        let (a, na) = centred_rows(x, &x_mean);
+        let (b, nb) = centred_rows(y, &y_mean);
+        let gram = at_b(&a, na, n, &a, na, t, true);
+        let xty = at_b(&a, na, n, &b, nb, t, false);
+        let mut square = vec![0.0; n * n];
+        for i in 0..n {
+            square[i * n..(i + 1) * n].copy_from_slice(&gram[i * na..i * na + n]);
+        }
+        let mut projected = vec![0.0; n * d];
+        for i in 0..n {
+            projected[i * d..(i + 1) * d].copy_from_slice(&xty[i * nb..i * nb + d]);
+        }
+        let tri = Tridiagonal::new(square, n);
+        tri.apply_qt(&mut projected, d);
+        Ok(RidgePath { tri, projected, x_mean, y_mean, n_samples: t })
     }
 
     /// Number of features.
@@ -153,9 +185,9 @@ impl RidgePath {
         self.n_samples
     }
 
-    /// Eigenvalues of the centred Gram matrix, ascending.
-    pub fn gram_eigenvalues(&self) -> &[f64] {
-        &self.eigvals
+    /// The largest eigenvalue of the centred Gram matrix (a scale for penalties).
+    pub fn largest_gram_eigenvalue(&self) -> f64 {
+        self.tri.largest_eigenvalue()
     }
 
     /// The readout for one penalty.
@@ -163,40 +195,23 @@ impl RidgePath {
         if !(penalty.is_finite() && penalty >= 0.0) {
             return Err(Error::InvalidPenalty(penalty));
         }
-        let n = self.n_features();
-        let d = self.n_outputs();
-        let scaled = Mat::from_fn(n, d, |k, j| {
-            let den = self.eigvals[k] + penalty;
-            if den > 0.0 { self.projected[(k, j)] / den } else { 0.0 }
-        });
-        let mut w = Mat::<f64>::zeros(n, d);
-        matmul(w.as_mut(), Accum::Replace, self.eigvecs.as_ref(), scaled.as_ref(), 1.0, Par::Seq);
-        Ok(readout(w.as_ref(), &self.x_mean, &self.y_mean))
+        let (n, d) = (self.n_features(), self.n_outputs());
+        let mut z = self.projected.clone();
+        self.tri.solve_shifted(penalty, &mut z, d);
+        self.tri.apply_q(&mut z, d);
+        let mut weights = Vec::with_capacity(n * d);
+        let mut bias = Vec::with_capacity(d);
+        for j in 0..d {
+            let mut b = self.y_mean[j];
+            for i in 0..n {
+                let w = z[i * d + j];
+                weights.push(w);
+                b = (-self.x_mean[i]).mul_add(w, b);
+            }
+            bias.push(b);
+        }
+        Ok(Readout { n_features: n, weights, bias })
     }
-}
-
-/// Eigendecomposition of a symmetric matrix, sequential on purpose: faer's
-/// convenience method follows the global thread count, and the result must not.
-fn symmetric_eigen(a: &Mat<f64>) -> Result<(Mat<f64>, Vec<f64>)> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::evd::{self, ComputeEigenvectors};
-    let n = a.nrows();
-    let mut s = faer::diag::Diag::<f64>::zeros(n);
-    let mut u = Mat::<f64>::zeros(n, n);
-    let par = Par::Seq;
-    let scratch = evd::self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, par, Default::default());
-    evd::self_adjoint_evd(
-        a.as_ref(),
-        s.as_mut(),
-        Some(u.as_mut()),
-        par,
-        MemStack::new(&mut MemBuffer::new(scratch)),
-        Default::default(),
-    )
-    .map_err(|_| Error::Decomposition)?;
-    let s = s.column_vector();
-    // Rounding can make the smallest eigenvalues of a singular Gram matrix slightly negative.
-    Ok((u, (0..n).map(|k| s[k].max(0.0)).collect()))
 }
 
 /// Ridge regression solved directly, `(X̃ᵀX̃ + λI) W = X̃ᵀỸ` by a Cholesky

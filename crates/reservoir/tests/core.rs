@@ -417,3 +417,22 @@ fn a_resumed_generator_continues_bit_for_bit() {
         assert!(Generator::resume(&m, &[f64::NAN; 40], 0).is_err());
     }
 }
+
+/// The bits of a trained model, kept: the same configuration gives the same
+/// model file on every x86-64 machine (the regression's sums run in a fixed
+/// order whatever the instruction set, `cpg_regression::fixed`), so a change
+/// here is a change of results, on this machine or another.
+#[test]
+fn a_kept_model_has_the_same_bits_on_every_machine() {
+    use sha2::Digest;
+    let m = sine_model(40, 3, Precision::F32);
+    let hex: String = sha2::Sha256::digest(m.to_bytes().unwrap()).iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(
+        hex, KEPT_SINE_MODEL_SHA256,
+        "the sine model's bits changed (penalty {:e})",
+        m.provenance.chosen_penalty
+    );
+}
+
+/// The SHA-256 of `sine_model(40, 3, F32)`'s file, as trained on AMD EPYC (AVX-512) on 2026-12-03.
+const KEPT_SINE_MODEL_SHA256: &str = "e195ae073ab8f5a6c307e1e95f3d573c766b447c67fc39ecffea97b8d5c8c265";
