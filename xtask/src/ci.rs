@@ -7,12 +7,14 @@ use anyhow::{Context, bail};
 /// Runs a command in the workspace root, echoing it; fails on a non-zero exit.
 pub fn cmd(program: &str, args: &[&str], env: &[(&str, &str)]) -> anyhow::Result<()> {
     eprintln!("$ {program} {}", args.join(" "));
+    let start = std::time::Instant::now();
     let status = Command::new(program)
         .args(args)
         .envs(env.iter().copied())
         .current_dir(crate::root())
         .status()
         .with_context(|| format!("starting {program}"))?;
+    eprintln!("  ({program} {}: {:.1} s)", args.first().copied().unwrap_or(""), start.elapsed().as_secs_f64());
     if !status.success() {
         bail!("`{program} {}` failed ({status})", args.join(" "));
     }

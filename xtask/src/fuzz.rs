@@ -141,7 +141,9 @@ pub fn run(seconds: u64, targets: &[String], seed: Option<u64>) -> anyhow::Resul
     }
     let chosen: Vec<&str> =
         if targets.is_empty() { TARGETS.to_vec() } else { targets.iter().map(String::as_str).collect() };
+    let started = std::time::Instant::now();
     let bin_dir = build(&root)?;
+    eprintln!("  (building the fuzz targets: {:.1} s)", started.elapsed().as_secs_f64());
     let mut summary = Vec::new();
     let mut failed = Vec::new();
     for t in chosen {

@@ -37,6 +37,17 @@ fn tidy(p: &Path) -> PathBuf {
     out
 }
 
+/// Makes the directory of a config's `output.model` when it is missing.
+fn create_model_dir(model: &Path) -> anyhow::Result<()> {
+    let Some(dir) = model.parent().filter(|d| !d.as_os_str().is_empty()) else { return Ok(()) };
+    if !dir.exists() {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("creating {}, the directory of the config's output.model", tidy(dir).display()))?;
+        eprintln!("created {} (the directory of the config's output.model)", tidy(dir).display());
+    }
+    Ok(())
+}
+
 /// The worst validation score `cpg train` accepts without `--allow-unstable`.
 const UNSTABLE_SCORE: f64 = 1.0;
 
@@ -46,7 +57,6 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
     if let Some(o) = output {
         c.output.model = o.to_owned();
     }
-    let dest = check_writable(&c.output.model)?;
     let start = Instant::now();
     eprintln!("preparing the data of {} …", config.display());
     let p = cpg_lab::prepare::prepare(&c)?;
@@ -54,8 +64,16 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
     for n in &p.notes {
         eprintln!("note: {n}");
     }
+    // Every setting is checked before the output: a bad config is reported
+    // as such, whatever the state of the model's directory.
     let rc = cpg_lab::train::reservoir_config(&c, p.outputs.len())?;
     let s = cpg_lab::train::train_settings(&c)?;
+    if output.is_none() {
+        // The config's own `output.model` (the project's layout, such as
+        // `models/`): its directory is made. A path typed with `-o` is not.
+        create_model_dir(&c.output.model)?;
+    }
+    let dest = check_writable(&c.output.model)?;
     eprintln!(
         "training a {}-neuron reservoir (seed {}): {} samples, {} penalties × {} noise draws, score {} …",
         rc.n_neurons,
