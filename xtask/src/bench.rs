@@ -324,11 +324,7 @@ fn mib(m: Option<f64>) -> String {
     m.map_or("?".into(), |m| format!("{m:.1} MiB"))
 }
 
-fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    if s.is_empty() { f64::NAN } else { s[s.len() / 2] }
-}
+use cpg_lab::stats::median;
 
 fn range(v: &[f64]) -> (f64, f64) {
     v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)))
@@ -357,6 +353,7 @@ fn run_in(args: &Args, e1: &cpg_lab::Config, f: &Prepared, cpg: &Path, dir: &Pat
     let mut memory = Memory::default();
     let models = many_streams(f, threads, args.baseline_step_us)?;
     one_stream(&models)?;
+    split_rule(f)?;
     phases(f)?;
     precision_table(f)?;
     let e1_peaks = e1_pipeline(e1, f, cpg, dir, args.vs_reservoirpy.then_some(args.pairs))?;
@@ -542,6 +539,69 @@ fn one_stream(models: &[(usize, Precision, TrainedCpg)]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// When one run is split: the Python package's path (`free_runs_on` with one
+/// run) on one thread and on two, over reservoir sizes, beside the rule
+/// `cpg_lab::measure::SPLIT_MIN_NEURONS` the package applies by default.
+fn split_rule(f: &Prepared) -> anyhow::Result<()> {
+    use cpg_lab::measure::{RunSpec, SPLIT_MIN_NEURONS, free_runs_on};
+    println!("\n## When one run is split (f64, one free run, `threads=None` in Python)\n");
+    println!(
+        "Seconds a step of one free run through `cpg_lab::measure::free_runs_on` (what `Model.generate` calls), on one thread and split by rows over two, median of 3. The split pays from the smallest N at which it is at least 10 % faster; the default rule splits from N = {SPLIT_MIN_NEURONS}.\n"
+    );
+    println!("| N | one thread | two threads | speed-up | default (`threads=None`) | the faster |");
+    println!("|---:|---:|---:|---:|---|---|");
+    let quick = TrainSettings {
+        penalties: PenaltyGrid::log10_range(1.0, 1.0, -1.0)?,
+        n_noise_draws: 1,
+        ..TrainSettings::wyffels_schrauwen_2009()
+    };
+    let none = cpg_lab::ControlSchedule::Constant(Vec::new());
+    let mut wins_from: Option<usize> = None;
+    let mut agree = true;
+    for n in [300usize, 600, 1000, 1500, 2000, 3000] {
+        let m = model(Reservoir::new(&config(n, Precision::F64)?, 1)?, f, &quick)?;
+        let steps = (40_000_000 / (n * n)).clamp(500, 20_000);
+        let spec = [RunSpec { model: &m, controls: &none, steps, push: None, noise: None }];
+        let time = |threads: usize| -> anyhow::Result<f64> {
+            let mut r = Ok(());
+            let t = median3(|| {
+                if let Err(e) = free_runs_on(&spec, threads).map(|v| v.into_iter().collect::<Result<Vec<_>, _>>()) {
+                    r = Err(e);
+                }
+            });
+            r?;
+            Ok(t.as_secs_f64() / steps as f64)
+        };
+        let one = time(1)?;
+        let two = time(2)?;
+        let split_wins = two * 1.1 <= one;
+        if split_wins && wins_from.is_none() {
+            wins_from = Some(n);
+        }
+        let default_splits = n >= SPLIT_MIN_NEURONS;
+        // The default is right when it splits exactly where the split is the faster.
+        agree &= default_splits == (two < one) || (one / two - 1.0).abs() < 0.1;
+        println!(
+            "| {n} | {} | {} | {:.2}× | {} | {} |",
+            secs(one),
+            secs(two),
+            one / two,
+            if default_splits { "two threads" } else { "one thread" },
+            if two < one { "two threads" } else { "one thread" }
+        );
+    }
+    println!(
+        "\nOn this machine the split is at least 10 % faster from N = {}; the default rule (N ≥ {SPLIT_MIN_NEURONS}) {} (within 10 % counts as a tie).",
+        wins_from.map_or("(none measured)".to_string(), |n| n.to_string()),
+        if agree {
+            "picks the faster at every size measured"
+        } else {
+            "picks the slower at some size: revise SPLIT_MIN_NEURONS"
+        }
+    );
+    Ok(())
+}
+
 /// The training phases at N = 300, each beside the time to stream W once.
 fn phases(f: &Prepared) -> anyhow::Result<()> {
     println!("\n## Training phases (N = 300, all cores)\n");
@@ -644,9 +704,7 @@ fn precision_table(f: &Prepared) -> anyhow::Result<()> {
 }
 
 fn nmse(y: &[f64], t: &[f64]) -> f64 {
-    let m = t.iter().sum::<f64>() / t.len() as f64;
-    let var = t.iter().map(|v| (v - m).powi(2)).sum::<f64>() / t.len() as f64;
-    y.iter().zip(t).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / t.len() as f64 / var
+    cpg_regression::nmse(y, t, 1)
 }
 
 /// Builds `cpg` (release) and returns its path.

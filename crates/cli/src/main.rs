@@ -312,11 +312,14 @@ struct RecordingArgs {
 /// The robot a command drives: its URDF, the map onto its joints, and the acceleration bound.
 #[derive(Debug, clap::Args)]
 struct RobotArgs {
-    /// The robot description (URDF).
-    #[arg(long, default_value = "assets/hoap2/hoap2.urdf")]
+    /// The robot description: a URDF file, or `hoap2` for the project's
+    /// `assets/hoap2/hoap2.urdf`, built into this program.
+    #[arg(long, default_value = "hoap2")]
     urdf: PathBuf,
-    /// The channel-to-joint map (TSV: joint, channel, sign, offset_deg; see docs/hoap2-map.md).
-    #[arg(long, default_value = "assets/hoap2/cmu35_to_hoap2.tsv")]
+    /// The channel-to-joint map: a TSV file (joint, channel, sign, offset_deg;
+    /// see docs/hoap2-map.md), or a built-in one: `hoap2` (the 22 leg and arm
+    /// joints, `assets/hoap2/cmu35_to_hoap2.tsv`) or `legs` (the 12 leg joints).
+    #[arg(long, default_value = "hoap2")]
     map: PathBuf,
     /// The acceleration bound every joint is kept within, rad/s² (the
     /// HOAP-2 documents give none; this default is ours).
@@ -381,7 +384,7 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             }
-            let (urdf, map) = (commands::asset(&robot_args.urdf), commands::asset(&robot_args.map));
+            let (urdf, map) = (robot_args.urdf.clone(), robot_args.map.clone());
             commands::stream(commands::Stream {
                 model: &model,
                 rate_hz,

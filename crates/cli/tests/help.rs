@@ -53,9 +53,6 @@ fn each_command_states_its_own_defaults() {
     assert!(help("generate").contains("[default: 30]"));
     assert!(help("evaluate").contains("[default: 900]"));
     let h = help("hoap2");
-    assert!(
-        h.contains("[default: assets/hoap2/hoap2.urdf]") && h.contains("[default: assets/hoap2/cmu35_to_hoap2.tsv]"),
-        "{h}"
-    );
+    assert!(h.matches("[default: hoap2]").count() == 2 && h.contains("assets/hoap2/cmu35_to_hoap2.tsv"), "{h}");
     assert!(help("evaluate").lines().count() > 15, "evaluate has a long description");
 }

@@ -11,6 +11,36 @@ mod common;
 
 use common::{cmu, cpg, ok, repo, walk22};
 
+/// The robot's files are part of the program: a copy of `cpg` run far from
+/// the checkout (as `cargo install` leaves it) drives the HOAP-2 with its
+/// built-in URDF and map.
+#[test]
+fn the_robot_files_travel_with_the_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("cpg");
+    std::fs::copy(env!("CARGO_BIN_EXE_cpg"), &bin).unwrap();
+    let model = dir.path().join("walk22.cpg");
+    std::fs::copy(walk22(), &model).unwrap();
+    let o = Command::new(&bin)
+        .args(["hoap2", "-m", "walk22.cpg", "--seconds", "1", "-o", "j.csv"])
+        .current_dir(dir.path())
+        .env_remove("CARGO_MANIFEST_DIR")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let text = std::fs::read_to_string(dir.path().join("j.csv")).unwrap();
+    assert_eq!(text.lines().next().unwrap().split(',').count(), 1 + 3 * 22, "22 joints from the built-in map");
+    // A missing file is still an error, not a silent fallback to the built-in robot.
+    let o = Command::new(&bin)
+        .args(["hoap2", "-m", "walk22.cpg", "--seconds", "1", "--urdf", "assets/hoap2/hoap2.urdf", "-o", "k.csv"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("hoap2.urdf"));
+}
+
 #[test]
 fn hoap2_trajectories_have_exact_rows_and_keep_every_limit() {
     let dir = tempfile::tempdir().unwrap();

@@ -16,12 +16,15 @@
 //! - [`Robot::link_poses`], [`Robot::path`]: forward kinematics from the URDF
 //!   (nalgebra), and [`gait`]: the feet's excursion and lift, the period and
 //!   the phase between the legs.
+//! - [`assets`]: the project's URDF and maps compiled in ([`Robot::hoap2`],
+//!   [`Robot::from_spec`], [`ChannelMap::from_spec`]).
 //! - [`MapPlan`]: the map resolved against a robot and a channel list, for
 //!   mapping one frame at a time without allocating (live control loops).
 //!
 //! The crate takes plain channel names and values, so it does not depend on
 //! the mocap or reservoir crates.
 
+pub mod assets;
 mod kinematics;
 mod smooth;
 

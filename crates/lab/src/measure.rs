@@ -332,6 +332,13 @@ pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
     free_runs_on(runs, threads())
 }
 
+/// Reservoirs at least this large run one free run split over two cores when
+/// the caller leaves the choice to the library (the Python package's
+/// `threads=None`): below it, the exchange of half states between the cores
+/// after every step costs more than the rows each core saves. Checked against
+/// the measured crossover by `cargo xtask bench` ("When one run is split").
+pub const SPLIT_MIN_NEURONS: usize = 1500;
+
 /// [`free_runs_each`] on `threads` threads (a long run is split by rows over
 /// them; 1 runs on the calling thread alone). The bits do not depend on it.
 pub fn free_runs_on(runs: &[RunSpec<'_>], threads: usize) -> Result<Vec<Result<Vec<f64>>>> {

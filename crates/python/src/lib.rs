@@ -140,11 +140,6 @@ fn interruptible<T: Send + 'static>(
     }
 }
 
-/// The project's HOAP-2 description and channel maps, carried in the package.
-const HOAP2_URDF: &str = include_str!("../../../assets/hoap2/hoap2.urdf");
-const HOAP2_MAP: &str = include_str!("../../../assets/hoap2/cmu35_to_hoap2.tsv");
-const HOAP2_LEGS_MAP: &str = include_str!("../../../assets/hoap2/cmu35_legs_to_hoap2.tsv");
-
 /// A 2-D float64 array as row-major values, with its shape (any strides, any order).
 fn rows(a: &PyReadonlyArray2<'_, f64>) -> (Vec<f64>, usize, usize) {
     let v = a.as_array();
@@ -440,11 +435,9 @@ impl Model {
     }
 }
 
-/// Reservoirs at least this large run one free run split over two cores by
-/// default (`threads=None`): below it, the exchange between the cores costs
-/// more than the rows each saves (the bench's "one stream split over both
-/// cores" against the one-core step).
-pub const SPLIT_MIN_NEURONS: usize = 1500;
+/// Reservoirs at least this large split one free run over two cores by
+/// default (`threads=None`); defined, and checked by the bench, in cpg-lab.
+pub use cpg_lab::measure::SPLIT_MIN_NEURONS;
 
 /// Steps between checks for Ctrl-C in a long free run.
 const CHECK_EVERY_STEPS: usize = 4096;
@@ -482,15 +475,10 @@ fn schedule(m: &TrainedCpg, controls: Option<&Bound<'_, PyAny>>) -> PyResult<Con
 fn load_robot(urdf: Option<PathBuf>, map: Option<&str>) -> PyResult<(UrdfRobot, ChannelMap)> {
     let robot = match urdf {
         Some(p) => UrdfRobot::from_urdf_file(&p),
-        None => UrdfRobot::from_urdf_str(HOAP2_URDF, Path::new("hoap2.urdf")),
+        None => UrdfRobot::hoap2(),
     }
     .map_err(err)?;
-    let map = match map {
-        None | Some("hoap2") => ChannelMap::parse(HOAP2_MAP, "cmu35_to_hoap2.tsv"),
-        Some("legs") => ChannelMap::parse(HOAP2_LEGS_MAP, "cmu35_legs_to_hoap2.tsv"),
-        Some(p) => ChannelMap::load(Path::new(p)),
-    }
-    .map_err(err)?;
+    let map = ChannelMap::from_spec(Path::new(map.unwrap_or("hoap2"))).map_err(err)?;
     Ok((robot, map))
 }
 
@@ -1157,7 +1145,7 @@ fn fit(
 /// The HOAP-2 URDF the package carries (the project's `assets/hoap2/hoap2.urdf`).
 #[pyfunction]
 fn hoap2_urdf() -> &'static str {
-    HOAP2_URDF
+    cpg_hoap2::assets::HOAP2_URDF
 }
 
 /// The HOAP-2 joints of a URDF (default: the package's): name, parent and

@@ -81,14 +81,16 @@ def test_ctrl_c_stops_a_long_free_run_at_once(tmp_path, femur_model):
         m = cpg.load({str(path)!r})
         print("ready", flush=True)
         try:
-            m.generate(3_000_000, threads=1)
+            m.generate(30_000_000, threads=1)
             print("finished")
         except KeyboardInterrupt:
             print("interrupted", time.monotonic(), flush=True)
     """
     p = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code)], stdout=subprocess.PIPE, text=True)
     assert p.stdout.readline().strip() == "ready"
-    time.sleep(1.0)
+    # Long enough on the fastest machine (30 M steps take seconds), short
+    # enough to be well inside the run when the signal comes.
+    time.sleep(0.3)
     sent = time.monotonic()
     p.send_signal(signal.SIGINT)
     out, _ = p.communicate(timeout=60)

@@ -352,15 +352,6 @@ pub fn generate(
     Ok(())
 }
 
-/// An asset of this checkout: the path as given, else the same path under the workspace root.
-pub fn asset(p: &Path) -> PathBuf {
-    if p.exists() || p.is_absolute() {
-        return p.to_owned();
-    }
-    let here = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(p);
-    if here.exists() { tidy(&here) } else { p.to_owned() }
-}
-
 /// `cpg hoap2`'s arguments.
 pub struct Hoap2<'a> {
     pub model: &'a Path,
@@ -379,8 +370,8 @@ pub struct Hoap2<'a> {
 /// `cpg hoap2`.
 pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     let m = TrainedCpg::load(a.model)?;
-    let robot = Robot::from_urdf_file(&asset(a.urdf))?;
-    let map = ChannelMap::load(&asset(a.map))?;
+    let robot = Robot::from_spec(a.urdf)?;
+    let map = ChannelMap::from_spec(a.map)?;
     let rate = m.provenance.sample_rate_hz;
     // The sizes are checked before anything runs.
     steps(a.seconds, rate, m.outputs.len())?;

@@ -149,7 +149,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     };
     // Columns out: the model's channels (degrees), or the robot's joints (radians, limited).
     let loaded = match s.robot {
-        Some((urdf, map)) => Some((Robot::from_urdf_file(urdf)?, ChannelMap::load(map)?)),
+        Some((urdf, map)) => Some((Robot::from_spec(urdf)?, ChannelMap::from_spec(map)?)),
         None => None,
     };
     let target = loaded.as_ref().map(|(robot, map)| cpg_lab::stream::RobotTarget {

@@ -8,7 +8,7 @@ use cpg_hoap2::{ChannelMap, Robot};
 use cpg_reservoir::TrainedCpg;
 use cpg_view::{Camera, Figure, GifOptions, Scene};
 
-use super::{asset, schedule, steps};
+use super::{schedule, steps};
 use crate::output::{check_writable, write_output};
 
 /// `cpg view`'s arguments.
@@ -75,7 +75,7 @@ fn model_scene(a: &View<'_>, model: &Path) -> anyhow::Result<Scene> {
     let controls = schedule(&m, a.control, a.control_file)?;
     let loaded;
     let robot = if a.robot {
-        loaded = (Robot::from_urdf_file(&asset(a.urdf))?, ChannelMap::load(&asset(a.map))?);
+        loaded = (Robot::from_spec(a.urdf)?, ChannelMap::from_spec(a.map)?);
         Some(cpg_lab::scene::RobotView { robot: &loaded.0, map: &loaded.1, acceleration_rad_s2: a.acceleration_rad_s2 })
     } else {
         None
@@ -103,7 +103,7 @@ fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {
             "note: the robot is left out: channel maps read AMC channels (rotations about each bone's ASF axes), and a BVH file's channels are rotations about world-aligned axes (docs/hoap2-map.md)"
         );
     }
-    let map = if a.robot && !bvh { Some(ChannelMap::load(&asset(a.map))?) } else { None };
+    let map = if a.robot && !bvh { Some(ChannelMap::from_spec(a.map)?) } else { None };
     let lacking: Vec<String> = map
         .as_ref()
         .map(|m| m.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).map(str::to_owned).collect())
@@ -116,7 +116,7 @@ fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {
         );
     }
     if let Some(map) = map.filter(|_| lacking.is_empty()) {
-        let robot = Robot::from_urdf_file(&asset(a.urdf))?;
+        let robot = Robot::from_spec(a.urdf)?;
         let t = map.apply(&robot, &names, m.values(), rate)?;
         let t = t.limit(&robot, a.acceleration_rad_s2)?;
         figures.push(Figure::robot(&cpg_lab::scene::robot_label(&robot), &robot, &t)?.with_note(format!(

@@ -277,19 +277,9 @@ pub fn continuation(t: &Teacher, d: usize, warmup_len: usize, n: usize) -> Vec<f
         .collect()
 }
 
-/// NMSE of `y` against `target` (both `t × d`), each channel divided by the target's variance, averaged.
-pub fn nmse(y: &[f64], target: &[f64], d: usize) -> f64 {
-    let t = target.len() / d;
-    (0..d)
-        .map(|c| {
-            let tc = column(target, d, c);
-            let m = tc.iter().sum::<f64>() / t as f64;
-            let var = (tc.iter().map(|v| (v - m).powi(2)).sum::<f64>() / t as f64).max(f64::MIN_POSITIVE);
-            column(y, d, c).iter().zip(&tc).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / t as f64 / var
-        })
-        .sum::<f64>()
-        / d as f64
-}
+/// NMSE of `y` against `target` (both `t × d`), each channel divided by the
+/// target's variance, averaged: [`cpg_regression::nmse`], the one definition.
+pub use cpg_regression::nmse;
 
 /// The push of `p` for teacher `t`.
 pub fn push_for(p: &PushSection, t: &Teacher, d: usize, rate_hz: f64) -> Push {

@@ -1,0 +1,54 @@
+//! The HOAP-2 files the project writes (`assets/hoap2/`), compiled into the
+//! crate: a program built from this crate (`cargo install`, a wheel) finds
+//! them wherever it runs, with no checkout beside it.
+//!
+//! [`Robot::from_spec`] and [`ChannelMap::from_spec`] read a file, or one of
+//! these by its name: `hoap2` (the robot; the 22-channel map) and `legs` (the
+//! 12-channel map of the legs).
+
+use std::path::Path;
+
+use crate::{ChannelMap, Result, Robot};
+
+/// `assets/hoap2/hoap2.urdf`: the HOAP-2's joints, links and limits.
+pub const HOAP2_URDF: &str = include_str!("../../../assets/hoap2/hoap2.urdf");
+/// `assets/hoap2/cmu35_to_hoap2.tsv`: CMU subject 35's channels onto the 22 leg and arm joints.
+pub const CMU35_TO_HOAP2: &str = include_str!("../../../assets/hoap2/cmu35_to_hoap2.tsv");
+/// `assets/hoap2/cmu35_legs_to_hoap2.tsv`: the 12 leg joints alone.
+pub const CMU35_LEGS_TO_HOAP2: &str = include_str!("../../../assets/hoap2/cmu35_legs_to_hoap2.tsv");
+
+/// The names a robot may be given by instead of a URDF file.
+pub const ROBOTS: [&str; 1] = ["hoap2"];
+/// The names a channel map may be given by instead of a TSV file.
+pub const MAPS: [&str; 2] = ["hoap2", "legs"];
+
+impl Robot {
+    /// The HOAP-2 as the project describes it ([`HOAP2_URDF`]).
+    pub fn hoap2() -> Result<Robot> {
+        Robot::from_urdf_str(HOAP2_URDF, Path::new("hoap2.urdf"))
+    }
+
+    /// A robot given as `hoap2` (the built-in one) or as a URDF file's path.
+    pub fn from_spec(spec: &Path) -> Result<Robot> {
+        if spec.as_os_str() == "hoap2" { Robot::hoap2() } else { Robot::from_urdf_file(spec) }
+    }
+}
+
+impl ChannelMap {
+    /// A built-in map by name ([`MAPS`]), if it is one.
+    pub fn builtin(name: &str) -> Option<Result<ChannelMap>> {
+        match name {
+            "hoap2" => Some(ChannelMap::parse(CMU35_TO_HOAP2, "cmu35_to_hoap2.tsv")),
+            "legs" => Some(ChannelMap::parse(CMU35_LEGS_TO_HOAP2, "cmu35_legs_to_hoap2.tsv")),
+            _ => None,
+        }
+    }
+
+    /// A map given by a built-in name ([`MAPS`]) or as a TSV file's path.
+    pub fn from_spec(spec: &Path) -> Result<ChannelMap> {
+        match spec.to_str().and_then(ChannelMap::builtin) {
+            Some(m) => m,
+            None => ChannelMap::load(spec),
+        }
+    }
+}
