@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """The HOAP-2 in MuJoCo, driven by a trained CPG at the simulator's rate.
 
-The project's URDF (assets/hoap2/hoap2.urdf) is loaded into MuJoCo with
-collision shapes added (capsules along the links, the foot boxes of the
-reference), a position actuator on every mapped joint with the URDF's effort
-limit as its force range, and a floor. A trained model is run by
+The project's physical HOAP-2 (``cpg.hoap2_mjcf()``, assets/hoap2/hoap2.xml,
+built from the URDF as docs/hoap2-model.md derives: a box per link, the
+soles of the real size, a position servo on each of the 25 joints within the
+URDF's effort) is loaded into MuJoCo. A trained model is run by
 ``cpg.Model.stream(rate_hz=1/timestep, robot=True)``: one tick per physics
 step, the CPG's channels mapped onto the joints within their position,
 velocity and acceleration limits. Two runs:
@@ -16,8 +16,10 @@ velocity and acceleration limits. Two runs:
    height or tilted beyond 45°).
 
 This is the paper's "future work" (stable walking of a humanoid): it measures
-how far the learnt gait gets; it does not promise that it walks. The servo
-gains are ours (the sources give none); change them with --kp and --kv.
+how far the paper's joint-angle copy gets; it does not promise that it
+walks. The servo gains are ours (the sources give none); change them with
+--kp and --kv. Joints the model does not drive (waist, neck) hold the home
+crouch's command.
 
     pip install ./crates/python mujoco
     python examples/mujoco_hoap2.py                     # trains examples/walk22.toml
@@ -28,78 +30,44 @@ import argparse
 import json
 import math
 import pathlib
-import re
 import sys
-import xml.etree.ElementTree as ET
 
 import numpy as np
 
 import cpg
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-URDF = ROOT / "assets" / "hoap2" / "hoap2.urdf"
-# The foot collision box of the reference: 0.095 × 0.065 × 0.039 m, centred
-# 0.01 m forward of and 0.015 m below the ankle (shared/reference/hoap2-joints.md).
-FOOT_HALF_M = (0.0475, 0.0325, 0.0195)
-FOOT_CENTRE_M = (0.01, 0.0, -0.015)
-LIMB_RADIUS_M = 0.015
 
 
-def efforts(urdf_text):
-    """The effort limit (N·m) of every revolute joint of the URDF."""
-    out = {}
-    for j in ET.fromstring(urdf_text).iter("joint"):
-        limit = j.find("limit")
-        if j.get("type") == "revolute" and limit is not None:
-            out[j.get("name")] = float(limit.get("effort"))
-    return out
+LEG_BITS = 2 | 4  # the MJCF's contype bits of the left and right leg
 
 
-def build(urdf_text, joints, timestep_s, kp, kv, free):
-    """The MuJoCo model: the URDF, collision shapes, actuators, a floor; the trunk free or held 0.6 m up."""
+def build(joints, timestep_s, kp, kv, free, leg_contacts=True):
+    """The project's MuJoCo HOAP-2 (``cpg.hoap2_mjcf()``), the servos' gains
+    set to kp, kv; the trunk free on the floor or held 0.6 m up; with
+    leg_contacts False the legs pass through each other."""
     import mujoco
 
-    # Keep the root link as a body of its own (MuJoCo would merge it into the world).
-    text = re.sub(r"(<robot[^>]*>)", r'\1<mujoco><compiler fusestatic="false"/></mujoco>', urdf_text, count=1)
-    spec = mujoco.MjSpec.from_string(text)
+    spec = mujoco.MjSpec.from_string(cpg.hoap2_mjcf())
     spec.option.timestep = timestep_s
-    floor = spec.worldbody.add_geom()
-    floor.type = mujoco.mjtGeom.mjGEOM_PLANE
-    floor.size = [10, 10, 0.1]
-    floor.friction = [1.0, 0.005, 0.0001]
-    trunk = spec.worldbody.first_body()
-    if free:
-        trunk.add_freejoint()
-    else:
+    if not leg_contacts:
+        for g in spec.geoms:
+            g.conaffinity &= ~LEG_BITS
+    if not free:
+        trunk = spec.body("trunk")
+        spec.delete(trunk.first_joint())
+        spec.delete(spec.key("home"))
         trunk.pos = [0, 0, 0.6]
-
-    def shape(body, **kw):
-        g = body.add_geom(**kw)
-        # Robot shapes touch the floor, not each other.
-        g.contype, g.conaffinity = 2, 1
-        g.density = 0  # the URDF's inertials are the masses
-        return g
-
-    # A capsule from each body's origin to each child's, a box for each foot.
-    for body in spec.bodies:
-        if body.name == "world":
-            continue
-        for child in body.bodies:
-            p = np.asarray(child.pos, dtype=float)
-            if np.linalg.norm(p) > 1e-6:
-                shape(body, type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, *p], size=[LIMB_RADIUS_M, 0, 0])
-        if body.name in ("lleg_link6", "rleg_link6"):
-            shape(body, type=mujoco.mjtGeom.mjGEOM_BOX, pos=list(FOOT_CENTRE_M), size=list(FOOT_HALF_M))
-    effort = efforts(urdf_text)
-    for j in spec.joints:
-        j.armature = 0.005
-        j.damping = [0.05, 0, 0]  # linear damping (MuJoCo 4 also takes quadratic and cubic terms)
-    for name in joints:
-        a = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    for a in spec.actuators:
         a.set_to_position(kp=kp, kv=kv)
-        a.forcelimited = True
-        a.forcerange = [-effort[name], effort[name]]
     model = spec.compile()
+    missing = [j for j in joints if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, j) < 0]
+    if missing:
+        raise SystemExit(f"the model's joints {missing} have no servo in cpg.hoap2_mjcf()")
+    effort = {
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, k): float(model.actuator_forcerange[k][1])
+        for k in range(model.nu)
+    }
     return model, effort
 
 
@@ -108,6 +76,8 @@ def run(stream, model, effort, seconds, free):
     import mujoco
 
     data = mujoco.MjData(model)
+    if free:
+        mujoco.mj_resetDataKeyframe(model, data, 0)  # standing in the home crouch
     joints = stream.columns
     qadr = [model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n)] for n in joints]
     act = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in joints]
@@ -123,7 +93,7 @@ def run(stream, model, effort, seconds, free):
         low = min(
             data.geom_xpos[g][2] - np.abs(data.geom_xmat[g].reshape(3, 3)).dot(model.geom_size[g])[2]
             for g in range(model.ngeom)
-            if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX
+            if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX and model.geom_conaffinity[g] & 1
         )
         data.qpos[2] -= low - 0.001
     mujoco.mj_forward(model, data)
@@ -135,6 +105,7 @@ def run(stream, model, effort, seconds, free):
     torque_max = np.zeros(len(joints))
     saturated = np.zeros(len(joints), dtype=int)
     fell_at = None
+    legs_touching = 0
     step = 0
     cmd = first
     for step in range(n):
@@ -147,6 +118,10 @@ def run(stream, model, effort, seconds, free):
         f = np.abs(data.actuator_force[act])
         torque_max = np.maximum(torque_max, f)
         saturated += f >= np.array([effort[j] for j in joints]) * 0.999
+        legs_touching += any(
+            model.geom_contype[c.geom1] & LEG_BITS and model.geom_contype[c.geom2] & LEG_BITS
+            for c in data.contact[: data.ncon]
+        )
         cmd = stream.tick()
         if free:
             up_z = data.xmat[trunk].reshape(3, 3)[2, 2]
@@ -157,6 +132,7 @@ def run(stream, model, effort, seconds, free):
     moved = data.xpos[trunk] - start
     out = {
         "seconds": steps * model.opt.timestep,
+        "legs_touching_share": legs_touching / steps,
         "joints": [
             {
                 "joint": j,
@@ -187,16 +163,27 @@ def main(argv=None):
     p.add_argument("--fixed-s", type=float, default=5.0, help="seconds with the trunk held fixed")
     p.add_argument("--free-s", type=float, default=10.0, help="longest run free on the floor, seconds")
     p.add_argument("--timestep-s", type=float, default=0.001, help="physics step (the CPG ticks at its inverse)")
-    p.add_argument("--kp", type=float, default=30.0, help="actuator stiffness, N·m/rad (ours)")
-    p.add_argument("--kv", type=float, default=0.5, help="actuator damping, N·m·s/rad (ours)")
+    p.add_argument("--kp", type=float, default=50.0, help="servo stiffness, N·m/rad (ours; the MJCF's)")
+    p.add_argument("--kv", type=float, default=0.5, help="servo damping, N·m·s/rad (ours; the MJCF's)")
+    p.add_argument(
+        "--leg-contacts",
+        choices=("on", "off"),
+        default="on",
+        help="whether the legs collide with each other (off: the servos' tracking alone)",
+    )
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
     a = p.parse_args(argv)
     model = cpg.load(a.model) if a.model else cpg.train(str(ROOT / "examples" / "walk22.toml"))
-    urdf_text = URDF.read_text()
-    results = {"model": repr(model), "kp": a.kp, "kv": a.kv, "timestep_s": a.timestep_s}
+    results = {
+        "model": repr(model),
+        "kp": a.kp,
+        "kv": a.kv,
+        "timestep_s": a.timestep_s,
+        "leg_contacts": a.leg_contacts,
+    }
     for phase, seconds, free in (("fixed", a.fixed_s, False), ("free", a.free_s, True)):
         stream = model.stream(rate_hz=1.0 / a.timestep_s, robot=True)
-        mj, effort = build(urdf_text, stream.columns, a.timestep_s, a.kp, a.kv, free)
+        mj, effort = build(stream.columns, a.timestep_s, a.kp, a.kv, free, a.leg_contacts == "on")
         results[phase] = run(stream, mj, effort, seconds, free)
     if a.json:
         print(json.dumps(results, indent=2))
@@ -210,6 +197,7 @@ def main(argv=None):
             f"{j['joint']:<14} {j['rms_error_deg']:>7.2f}° {j['max_error_deg']:>7.2f}° "
             f"{j['max_torque_nm']:>8.2f} N·m {j['torque_limit_nm']:>5.1f} {100 * j['saturated_share']:>8.1f}%"
         )
+    print(f"the legs touch each other in {100 * f['legs_touching_share']:.1f}% of the steps")
     w = results["free"]
     worst = max(w["joints"], key=lambda j: j["max_torque_nm"])
     if w["fell_after_s"] is None:

@@ -6,6 +6,7 @@ mod ci;
 mod fetch;
 mod figures;
 mod fuzz;
+mod hoap2_model;
 mod python;
 mod report;
 mod train;
@@ -66,6 +67,12 @@ enum Command {
     /// configurations per minute; the full evaluation's time by section; and
     /// the peak memory of each process.
     Bench(bench::Args),
+    /// Write the HOAP-2's physical model: assets/hoap2/hoap2.urdf (each link's
+    /// centre of mass, inertia and collision box from cpg-hoap2's shape table,
+    /// the joints and masses kept), assets/hoap2/hoap2.xml (the MuJoCo scene built
+    /// from that URDF) and the derived table of docs/hoap2-model.md. A test checks
+    /// that the committed files are what this writes.
+    Hoap2Model,
     /// Build the fuzz targets (ASF, AMC, TOML config, model file, control
     /// CSV) with the stable toolchain and run each under libFuzzer for a
     /// bounded time.
@@ -97,6 +104,7 @@ fn main() -> std::process::ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::Train(args) => train::run(&args),
         Command::Python => python::run(),
+        Command::Hoap2Model => hoap2_model::run(),
         Command::Evaluate(args) => report::run(&args),
     };
     if let Some(line) = cpg_lab::memory::report_line() {

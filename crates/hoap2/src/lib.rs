@@ -18,6 +18,9 @@
 //!   the phase between the legs.
 //! - [`assets`]: the project's URDF and maps compiled in ([`Robot::hoap2`],
 //!   [`Robot::from_spec`], [`ChannelMap::from_spec`]).
+//! - [`physics`]: the robot as a physical body (a solid box per link, its
+//!   centre of mass and inertia, collision shapes) and the MuJoCo model built
+//!   from the URDF ([`physics::mjcf`]; the project's `assets/hoap2/hoap2.xml`).
 //! - [`MapPlan`]: the map resolved against a robot and a channel list, for
 //!   mapping one frame at a time without allocating (live control loops).
 //!
@@ -26,6 +29,7 @@
 
 pub mod assets;
 mod kinematics;
+pub mod physics;
 mod smooth;
 
 pub use kinematics::{Gait, SOLE_IN_ANKLE_M, gait};

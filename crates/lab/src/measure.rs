@@ -335,9 +335,12 @@ pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
 /// Reservoirs at least this large run one free run split over two cores when
 /// the caller leaves the choice to the library (the Python package's
 /// `threads=None`): below it, the exchange of half states between the cores
-/// after every step costs more than the rows each core saves. Checked against
-/// the measured crossover by `cargo xtask bench` ("When one run is split").
-pub const SPLIT_MIN_NEURONS: usize = 1500;
+/// after every step costs more than the rows each core saves. Set from
+/// `cargo xtask bench` ("When one run is split"; 2-core AVX-512 machine,
+/// f64): the split was slower at N = 300, 600 and 1500, level at 1000, and
+/// 5–6 % faster at 2000 and 3000, where the weights no longer fit in cache
+/// and both cores wait on memory.
+pub const SPLIT_MIN_NEURONS: usize = 2000;
 
 /// [`free_runs_each`] on `threads` threads (a long run is split by rows over
 /// them; 1 runs on the calling thread alone). The bits do not depend on it.

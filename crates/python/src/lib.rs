@@ -1148,6 +1148,15 @@ fn hoap2_urdf() -> &'static str {
     cpg_hoap2::assets::HOAP2_URDF
 }
 
+/// The HOAP-2 as a MuJoCo scene (the project's `assets/hoap2/hoap2.xml`):
+/// floor, body on a free joint, a position servo per joint (named after it),
+/// IMU and sole touch sensors, keyframe `home` standing in the home crouch.
+/// Load it with `mujoco.MjModel.from_xml_string(cpg.hoap2_mjcf())`.
+#[pyfunction]
+fn hoap2_mjcf() -> &'static str {
+    cpg_hoap2::assets::HOAP2_MJCF
+}
+
 /// The HOAP-2 joints of a URDF (default: the package's): name, parent and
 /// child links, lower and upper limits (rad), velocity limit (rad/s).
 #[pyfunction]
@@ -1210,6 +1219,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(train, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(hoap2_urdf, m)?)?;
+    m.add_function(wrap_pyfunction!(hoap2_mjcf, m)?)?;
     m.add_function(wrap_pyfunction!(robot_joints, m)?)?;
     m.add_function(wrap_pyfunction!(map_hoap2, m)?)?;
     m.add_function(wrap_pyfunction!(_model_from_bytes, m)?)?;

@@ -156,6 +156,9 @@ def fit(
 def hoap2_urdf() -> str:
     """The HOAP-2 URDF the package carries."""
 
+def hoap2_mjcf() -> str:
+    """The HOAP-2 MuJoCo scene (MJCF) the package carries: servos, sensors, keyframe ``home``."""
+
 def robot_joints(urdf: Optional[_Path] = None) -> list[dict[str, Any]]:
     """Joints of a URDF: name, parent, child, lower_rad, upper_rad, velocity_rad_s."""
 
