@@ -146,3 +146,60 @@ fn amc_to_bvh_keeps_every_marker_of_35_01() {
     let again = cpg_mocap::parse_asf("again.asf", cpg_mocap::write_asf(&bvh.skeleton).as_bytes()).unwrap();
     assert_eq!(again, bvh.skeleton);
 }
+
+/// The retargeted walk (`cpg retarget`): the human's timing measured on
+/// 35_01–35_06, a robot walk whose multi-body ZMP stays inside the soles,
+/// within every joint's position and speed limits, keeping the human's
+/// joint cycles' shapes.
+#[test]
+fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
+    use cpg_hoap2::Robot;
+    use cpg_hoap2::walk::{MassModel, Support};
+    use cpg_lab::retarget::{RetargetOptions, human_walk, retarget};
+    let sk = skeleton35();
+    let trials: Vec<_> =
+        (1..=6).map(|i| sk.forward_kinematics(&motion35(&sk, &format!("35_0{i}.amc"))).unwrap()).collect();
+    let human = human_walk(&trials).unwrap();
+    // Subject 35 walks a stride in about 1.1 s, a foot on the ground a little over half of it.
+    assert!(human.strides >= 6, "{human:?}");
+    assert!((1.0..1.3).contains(&human.stride_period_s), "{human:?}");
+    assert!((0.5..0.7).contains(&human.duty_factor), "{human:?}");
+    assert!((0.8..1.0).contains(&human.leg_length_m) && (1.1..1.7).contains(&human.stride_length_m), "{human:?}");
+    let robot = Robot::hoap2().unwrap();
+    let mass = MassModel::from_urdf(&robot, cpg_hoap2::assets::HOAP2_URDF, std::path::Path::new("hoap2.urdf")).unwrap();
+    let (params, plan, style) = retarget(&human, &robot, &mass, &RetargetOptions::default()).unwrap();
+    assert!((params.stride_period_s - human.stride_period_s).abs() < 1e-12, "the human's tempo is kept");
+    assert!(plan.ik_residual_m < 1e-6, "IK residual {} m", plan.ik_residual_m);
+    let n = plan.n_frames();
+    let d = plan.joints.len();
+    for (k, j) in robot.joints.iter().enumerate() {
+        for f in 0..n {
+            let q = plan.q_rad[f * d + k];
+            assert!(q >= j.lower_rad - 1e-9 && q <= j.upper_rad + 1e-9, "{} at {q} rad in frame {f}", j.name);
+            if f > 0 {
+                let v = (q - plan.q_rad[(f - 1) * d + k]).abs() * plan.rate_hz;
+                assert!(v <= j.velocity_rad_s, "{} at {v} rad/s in frame {f}", j.name);
+            }
+        }
+    }
+    // The multi-body ZMP, with the links' accelerations, inside the sole(s) that carry the body.
+    let worst = plan.margin_m.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(worst > 0.0, "the ZMP leaves the support polygon by {:.1} mm", -1e3 * worst);
+    let single: Vec<f64> = (0..n).filter(|&f| plan.support[f] != Support::Double).map(|f| plan.margin_m[f]).collect();
+    assert!(!single.is_empty() && single.iter().all(|m| *m > 0.01), "under 1 cm of margin in single support");
+    // The stance foot flat and on the floor; the feet never cross.
+    for f in 0..n {
+        let [l, r] = plan.ankles_m[f];
+        assert!(l[1] - r[1] > 0.07, "frame {f}: the feet are {} m apart", l[1] - r[1]);
+        match plan.support[f] {
+            Support::Left => assert!((l[2] - cpg_hoap2::walk::ANKLE_HEIGHT_M).abs() < 1e-12),
+            Support::Right => assert!((r[2] - cpg_hoap2::walk::ANKLE_HEIGHT_M).abs() < 1e-12),
+            Support::Double => {}
+        }
+    }
+    // Style: the hips, knees and arms follow the human's cycle (correlation at the best phase).
+    for s in &style {
+        let floor = if s.human.starts_with("ankle") { 0.4 } else { 0.85 };
+        assert!(s.shifted.0 > floor, "{s:?}");
+    }
+}

@@ -60,6 +60,52 @@ enum Command {
         #[command(flatten)]
         rec: RecordingArgs,
     },
+    /// Retarget recorded walking to the HOAP-2: a walk it can balance.
+    ///
+    /// Measures the person's walk in the trials (stride period, time on the
+    /// ground, the swing foot's lift and progress over the swing, the stride in
+    /// leg lengths, the arms' swing) and plans the robot's: footsteps scaled to
+    /// its leg, the stance foot flat, the zero-moment point (ZMP) inside the
+    /// soles by ZMP preview control on a cart-table model (Kajita et al. 2003),
+    /// the whole body's centre of mass on the planned path, the legs by inverse
+    /// kinematics. Writes a CSV: time_s, the 25 joints (JOINT_rad), the trunk,
+    /// the centre of mass, the multi-body ZMP, its margin to the support
+    /// polygon (m, negative outside) and which feet carry the body; prints what
+    /// was kept of the human and the ZMP margins (--report: the same as JSON).
+    Retarget {
+        /// Walking trials: .amc (with --skeleton) or .bvh.
+        #[arg(long = "motion", short, required = true)]
+        motions: Vec<PathBuf>,
+        /// The skeleton (.asf) of .amc trials.
+        #[arg(long, short)]
+        skeleton: Option<PathBuf>,
+        /// Steps to walk (the first and last half steps included).
+        #[arg(long, default_value_t = 20)]
+        steps: usize,
+        /// The robot's step as a share of the human's step scaled to the robot's leg length.
+        #[arg(long, default_value_t = 0.2)]
+        step_scale: f64,
+        /// The swing foot's lift as a share of the human's, scaled to the robot's leg length.
+        #[arg(long, default_value_t = 0.4)]
+        lift_scale: f64,
+        /// The arms' swing as a share of the human's.
+        #[arg(long, default_value_t = 1.0)]
+        arm_scale: f64,
+        /// The share of a step on both feet (0–0.9) [default: the human's, from the time both feet are down].
+        #[arg(long)]
+        double_support_share: Option<f64>,
+        /// The planner's rate, Hz (20–2000).
+        #[arg(long, default_value_t = 200.0)]
+        plan_rate_hz: f64,
+        /// Output CSV (`-`: standard output).
+        #[arg(long, short)]
+        output: PathBuf,
+        /// Also write the measures as JSON here.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        #[command(flatten)]
+        rec: RecordingArgs,
+    },
     /// Train a CPG as a TOML configuration describes and write the model file.
     ///
     /// The file names the skeleton, the motion segments (each with its control
@@ -351,6 +397,35 @@ fn main() -> ExitCode {
         Command::Fk { motion, skeleton, output, rec } => {
             commands::fk(&motion, skeleton.as_deref(), &output, rec.rate_hz, rec.bvh_unit_mm)
         }
+        Command::Retarget {
+            motions,
+            skeleton,
+            steps,
+            step_scale,
+            lift_scale,
+            arm_scale,
+            double_support_share,
+            plan_rate_hz,
+            output,
+            report,
+            rec,
+        } => commands::retarget(commands::Retarget {
+            motions: &motions,
+            skeleton: skeleton.as_deref(),
+            options: cpg_lab::retarget::RetargetOptions {
+                step_scale,
+                lift_scale,
+                arm_scale,
+                double_support_share,
+                steps,
+                rate_hz: plan_rate_hz,
+                ..Default::default()
+            },
+            output: &output,
+            report: report.as_deref(),
+            rate_hz: rec.rate_hz,
+            bvh_unit_mm: rec.bvh_unit_mm,
+        }),
         Command::Train { config, output, allow_unstable } => {
             commands::train(&config, output.as_deref(), allow_unstable)
         }

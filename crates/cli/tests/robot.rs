@@ -285,3 +285,69 @@ fn generated_amc_stands_on_the_floor() {
     // The root travels: three seconds of walking cover more than a metre.
     assert!(walked > 1000.0, "root moved {walked} mm");
 }
+
+/// `cpg retarget`: subject 35's walk as a HOAP-2 walk, the ZMP inside the soles.
+#[test]
+fn retarget_writes_a_balanced_walk_and_refuses_bad_requests() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("walk.csv");
+    let json = dir.path().join("walk.json");
+    let asf = cmu("35.asf");
+    let (m1, m2) = (cmu("35_01.amc"), cmu("35_02.amc"));
+    let o = cpg(&[
+        OsStr::new("retarget"),
+        OsStr::new("-s"),
+        asf.as_os_str(),
+        OsStr::new("-m"),
+        m1.as_os_str(),
+        OsStr::new("-m"),
+        m2.as_os_str(),
+        OsStr::new("--steps"),
+        OsStr::new("8"),
+        OsStr::new("-o"),
+        csv.as_os_str(),
+        OsStr::new("--report"),
+        json.as_os_str(),
+    ]);
+    let err = ok(&o);
+    assert!(err.contains("ZMP inside the support polygon in 100.0 %"), "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    assert_eq!(header.iter().filter(|h| h.ends_with("_rad")).count(), 25);
+    assert!(header.contains(&"zmp_margin_m") && header.contains(&"support"));
+    let k = header.iter().position(|h| *h == "zmp_margin_m").unwrap();
+    for line in text.lines().skip(1) {
+        let m: f64 = line.split(',').nth(k).unwrap().parse().unwrap();
+        assert!(m > 0.0, "{line}");
+    }
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["params"]["steps"], 8);
+    assert!(report["style"].as_array().unwrap().len() >= 6);
+    // Bad requests: one message, exit 2, nothing written.
+    let bad = dir.path().join("bad.csv");
+    for extra in [["--step-scale", "nan"], ["--double-support-share", "0.95"], ["--steps", "1"], ["--steps", "9000000"]]
+    {
+        let mut args: Vec<&OsStr> = vec![OsStr::new("retarget"), OsStr::new("-s"), asf.as_os_str()];
+        args.extend([OsStr::new("-m"), m1.as_os_str(), OsStr::new("-o"), bad.as_os_str()]);
+        args.extend(extra.iter().map(OsStr::new));
+        let o = cpg(&args);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(!bad.exists(), "{extra:?} wrote a file");
+    }
+    // A trial that does not travel is not a walk.
+    let run = dir.path().join("still.amc");
+    let first: String = std::fs::read_to_string(&m1).unwrap().lines().take(3 + 30 * 29).collect::<Vec<_>>().join("\n");
+    std::fs::write(&run, first + "\n").unwrap();
+    let o = cpg(&[
+        OsStr::new("retarget"),
+        OsStr::new("-s"),
+        asf.as_os_str(),
+        OsStr::new("-m"),
+        run.as_os_str(),
+        OsStr::new("-o"),
+        bad.as_os_str(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("not a walk") || e.contains("no full stride"), "{e}");
+}

@@ -31,6 +31,7 @@ pub mod assets;
 mod kinematics;
 pub mod physics;
 mod smooth;
+pub mod walk;
 
 pub use kinematics::{Gait, SOLE_IN_ANKLE_M, gait};
 pub use smooth::{Bounds, LimitCounts, Limiter, natural_spline};

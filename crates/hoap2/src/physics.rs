@@ -132,7 +132,7 @@ pub const HOAP2_SHAPES: [Shape; 28] = {
 };
 
 /// The home crouch, degrees: the real robot's initial posture in its
-/// walking file (reference [K]: hip pitch −20°, knee +40°, arms hanging with
+/// walking file (reference \[K\]: hip pitch −20°, knee +40°, arms hanging with
 /// joint 2 at ±10°), except the ankle pitch, −20° instead of −22° so that the
 /// soles are flat (hip + knee + ankle pitch = 0). Joints not named are at 0.
 pub const HOME_POSE_DEG: [(&str, f64); 10] = [

@@ -47,6 +47,7 @@ pub mod experiment;
 pub mod measure;
 pub mod memory;
 pub mod prepare;
+pub mod retarget;
 pub mod scene;
 pub mod schedule;
 pub mod stats;

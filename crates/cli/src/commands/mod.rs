@@ -2,11 +2,13 @@
 
 mod fk;
 mod inspect;
+mod retarget;
 mod stream;
 mod view;
 
 pub use fk::run as fk;
 pub use inspect::run as inspect;
+pub use retarget::{Retarget, run as retarget};
 pub use stream::{Stream, run as stream};
 pub use view::{View, run as view};
 
