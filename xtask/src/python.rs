@@ -1,13 +1,13 @@
 //! `cargo xtask python`: installs the Python package (crates/python) into a
 //! virtual environment of its own, with what its tests need from the
-//! package registry (maturin, pytest, numpy, mujoco), and runs its tests.
+//! package registry (maturin, pytest, numpy, mujoco, optuna), and runs its tests.
 
 use anyhow::{Context, bail};
 
 use crate::ci::cmd;
 
 /// What the tests need from PyPI, beside the package's own dependencies.
-const TEST_PACKAGES: [&str; 4] = ["maturin>=1.7,<2", "pytest>=7", "numpy>=1.21", "mujoco>=3.2"];
+const TEST_PACKAGES: [&str; 5] = ["maturin>=1.7,<2", "pytest>=7", "numpy>=1.21", "mujoco>=3.2", "optuna>=3"];
 
 /// The environment: `target/python-venv` (never committed).
 pub fn venv() -> anyhow::Result<std::path::PathBuf> {

@@ -94,6 +94,10 @@ enum Command {
         /// The share of a step on both feet (0–0.9) [default: the human's, from the time both feet are down].
         #[arg(long)]
         double_support_share: Option<f64>,
+        /// The swing foot's least lift as a share of a half-sine of its peak (0–1): a flat foot
+        /// skimming the floor, as the person's heel does before touch-down, scuffs it.
+        #[arg(long, default_value_t = 0.5)]
+        clearance: f64,
         /// The planner's rate, Hz (20–2000).
         #[arg(long, default_value_t = 200.0)]
         plan_rate_hz: f64,
@@ -405,6 +409,7 @@ fn main() -> ExitCode {
             lift_scale,
             arm_scale,
             double_support_share,
+            clearance,
             plan_rate_hz,
             output,
             report,
@@ -417,6 +422,7 @@ fn main() -> ExitCode {
                 lift_scale,
                 arm_scale,
                 double_support_share,
+                clearance,
                 steps,
                 rate_hz: plan_rate_hz,
                 ..Default::default()

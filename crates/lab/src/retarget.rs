@@ -302,6 +302,10 @@ pub struct RetargetOptions {
     pub arm_scale: f64,
     /// The share of a step on both feet, instead of the human's.
     pub double_support_share: Option<f64>,
+    /// The swing foot's least lift, as a share of a half-sine of the peak
+    /// lift: the person's heel nears the floor well before touch-down, and a
+    /// flat robot foot that close to the floor scuffs it.
+    pub clearance: f64,
     /// Each sole centre's distance from the midline, metres.
     pub foot_y_m: f64,
     /// The trunk origin's height, metres.
@@ -321,6 +325,7 @@ impl Default for RetargetOptions {
             lift_scale: 0.4,
             arm_scale: 1.0,
             double_support_share: None,
+            clearance: 0.5,
             foot_y_m: 0.042,
             trunk_height_m: 0.2789,
             steps: 20,
@@ -371,7 +376,15 @@ pub fn walk_params(human: &HumanWalk, robot: &Robot, o: &RetargetOptions) -> Res
         step_length_m: o.step_scale * human.stride_length_m / 2.0 * scale,
         foot_y_m: o.foot_y_m,
         lift_m: o.lift_scale * human.lift_m * scale,
-        lift_profile: human.lift_profile.clone(),
+        lift_profile: {
+            let n = human.lift_profile.len().max(2) - 1;
+            human
+                .lift_profile
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v.max(o.clearance * (std::f64::consts::PI * i as f64 / n as f64).sin()))
+                .collect()
+        },
         advance_profile: human.advance_profile.clone(),
         trunk_height_m: o.trunk_height_m,
         steps: o.steps,

@@ -1,0 +1,119 @@
+"""Search the HOAP-2's feedback gains with a walking objective, on Optuna.
+
+``python -m cpg.sim_search --trajectory walk.csv --storage sqlite:///gains.db --trials 200 --workers 2``
+
+Every trial simulates the walk twice with one set of ``cpg.sim.Gains`` (20 s
+on flat ground; 20 s with a 0.2 m/s push every 5 s, the directions in turn)
+and scores ``upright share + pushes survived share + forward progress share
+- |heading| / 90°``, each share over what the run could reach. The study
+lives in Optuna's database storage: the same command run on more machines
+against one database (``--storage postgresql://...``) searches together, and
+``--workers N`` starts N worker processes here. Seeded: worker k samples with
+seed + k. Prints the best gains as JSON (``cpg-sim --gains``), and writes them
+with ``-o``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import sys
+
+from cpg.sim import Gains, read_trajectory, simulate
+
+SPACE = {
+    "ankle_pitch_kp": (-1.5, 1.5),
+    "ankle_pitch_kd": (-0.1, 0.1),
+    "ankle_roll_kp": (-1.5, 1.5),
+    "ankle_roll_kd": (-0.1, 0.1),
+    "hip_pitch_kp": (-1.5, 1.5),
+    "hip_roll_kp": (-1.5, 1.5),
+    "hip_yaw_kp": (-1.5, 1.5),
+}
+
+
+def score(walk, gains: Gains, seconds: float, planned_speed_m_s: float) -> tuple[float, list]:
+    """The objective of one set of gains, and the runs it came from."""
+    runs = [
+        simulate(*walk, seconds=seconds, gains=gains),
+        simulate(*walk, seconds=seconds, gains=gains, push_every_s=5.0, push_mps=0.2),
+    ]
+    s = 0.0
+    for r in runs:
+        s += r["upright_s"] / seconds
+        if r["pushes_total"]:
+            s += r["pushes_survived"] / r["pushes_total"]
+        s += max(0.0, min(1.0, r["forward_m"] / (planned_speed_m_s * seconds)))
+        s -= min(1.0, abs(r["heading_deg"]) / 90.0)
+    return s / len(runs), runs
+
+
+def planned_speed(walk) -> float:
+    t, joints, q, support = walk
+    return 0.05 if support is None else max(1e-3, 0.06)
+
+
+def _worker(args):
+    import optuna
+
+    trajectory, storage, name, trials, seconds, seed = args
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    walk = read_trajectory(trajectory)
+    study = optuna.load_study(study_name=name, storage=storage, sampler=optuna.samplers.TPESampler(seed=seed))
+
+    def objective(trial):
+        g = Gains(
+            **{k: trial.suggest_float(k, lo, hi) for k, (lo, hi) in SPACE.items()},
+            phase_reset=trial.suggest_categorical("phase_reset", [False, True]),
+        )
+        value, runs = score(walk, g, seconds, planned_speed(walk))
+        trial.set_user_attr("runs", [{k: v for k, v in r.items()} for r in runs])
+        return value
+
+    study.optimize(objective, n_trials=trials)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m cpg.sim_search", description=__doc__.split("\n\n")[0])
+    p.add_argument("--trajectory", required=True, help="the walk (cpg retarget's CSV)")
+    p.add_argument("--storage", required=True, help="Optuna storage URL, e.g. sqlite:///gains.db")
+    p.add_argument("--study", default="hoap2-feedback", help="the study's name in the storage")
+    p.add_argument("--trials", type=int, default=100, help="trials per worker")
+    p.add_argument("--workers", type=int, default=2, help="worker processes on this machine")
+    p.add_argument("--seconds", type=float, default=20.0, help="seconds per simulated run")
+    p.add_argument("--seed", type=int, default=1, help="worker k samples with seed + k")
+    p.add_argument("-o", "--output", help="write the best gains (JSON) here")
+    a = p.parse_args(argv)
+    try:
+        import optuna
+    except ImportError:
+        print("cpg.sim_search needs optuna: pip install optuna", file=sys.stderr)
+        return 2
+    if not (1 <= a.workers <= 256 and 1 <= a.trials <= 100_000 and 1.0 <= a.seconds <= 3600.0):
+        print("workers 1–256, trials 1–100000, seconds 1–3600", file=sys.stderr)
+        return 2
+    try:
+        read_trajectory(a.trajectory)
+    except (OSError, ValueError) as e:
+        print(f"cpg.sim_search: {e}", file=sys.stderr)
+        return 2
+    optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
+    jobs = [(a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k) for k in range(a.workers)]
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(a.workers) as pool:
+        pool.map(_worker, jobs)
+    study = optuna.load_study(study_name=a.study, storage=a.storage)
+    best = study.best_trial
+    gains = {k: v for k, v in best.params.items()}
+    out = {"gains": gains, "score": best.value, "trials": len(study.trials), "runs": best.user_attrs.get("runs")}
+    text = json.dumps(gains, indent=2)
+    if a.output:
+        with open(a.output, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

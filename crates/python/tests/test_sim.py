@@ -1,0 +1,80 @@
+"""The HOAP-2 walking in MuJoCo on a CPG learnt from its retargeted gait:
+a 10-s closed loop with one reservoir seed, the gain search on Optuna with
+two workers, and cpg-sim's errors."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT, cmu, cpg_binary
+
+mujoco = pytest.importorskip("mujoco")
+
+from cpg.sim import Gains, fit_walk, read_trajectory, simulate  # noqa: E402
+
+GAINS = ROOT / "assets" / "hoap2" / "feedback-gains.json"
+
+
+@pytest.fixture(scope="module")
+def walk(tmp_path_factory):
+    out = tmp_path_factory.mktemp("walk") / "walk.csv"
+    trials = []
+    for i in range(1, 7):
+        trials += ["-m", str(cmu(f"35_0{i}.amc"))]
+    r = subprocess.run(
+        [str(cpg_binary()), "retarget", "-s", str(cmu("35.asf")), *trials, "--steps", "24",
+         "--lift-scale", "0.7", "--double-support-share", "0.2", "-o", str(out)],
+        capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_a_cpg_walks_the_robot_10_s_in_closed_loop(walk):
+    w = read_trajectory(str(walk))
+    model = fit_walk(*w, seed=1, neurons=600, stride_index=4)
+    gains = Gains.from_json(GAINS.read_text())
+    # The CPG takes over at the 3rd left touch-down and drives to 10 s.
+    strikes = [w[0][k] for k in range(1, len(w[3])) if w[3][k] == "double" and w[3][k - 1] == "right"]
+    r = simulate(*w, seconds=10.0, gains=gains, cpg_model=model, handover_s=strikes[2])
+    assert not r["fell"] and r["upright_s"] == pytest.approx(10.0), r
+    assert r["forward_m"] > 0.3, r
+    assert abs(r["heading_deg"]) < 15.0, r
+    assert r["max_torque_nm"] <= 9.0 + 1e-9, r
+
+
+def test_the_gain_search_runs_on_optuna_with_two_workers(walk, tmp_path):
+    pytest.importorskip("optuna")
+    db = tmp_path / "gains.db"
+    best = tmp_path / "best.json"
+    r = subprocess.run(
+        [sys.executable, "-m", "cpg.sim_search", "--trajectory", str(walk), "--storage", f"sqlite:///{db}",
+         "--trials", "2", "--workers", "2", "--seconds", "2", "-o", str(best)],
+        capture_output=True, text=True, cwd=tmp_path,
+    )
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["trials"] == 4, out  # two trials from each of the two worker processes, one database
+    Gains.from_json(best.read_text())
+
+
+def test_cpg_sim_says_what_is_wrong(walk, tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,x\n0,1\n")
+    cases = [
+        (["--trajectory", str(bad)], "line 1"),
+        (["--trajectory", str(walk), "--gains", '{"knee_kp": 1}'], "unknown gains"),
+        (["--trajectory", str(walk), "--tempo", "9"], "tempo"),
+    ]
+    for args, words in cases:
+        r = subprocess.run([sys.executable, "-m", "cpg.sim", *args], capture_output=True, text=True)
+        assert r.returncode == 2 and words in r.stderr, (args, r.stderr)
+    r = subprocess.run([sys.executable, "-m", "cpg.sim", "--trajectory", str(walk), "--seconds", "2", "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    for k in ("upright_s", "fell", "forward_m", "lateral_m", "heading_deg", "max_torque_nm",
+              "pushes_survived", "pushes_total"):
+        assert k in out
