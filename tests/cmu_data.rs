@@ -154,7 +154,8 @@ fn amc_to_bvh_keeps_every_marker_of_35_01() {
 #[test]
 fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
     use cpg_hoap2::Robot;
-    use cpg_hoap2::walk::{MassModel, Support};
+    use cpg_hoap2::physics::MassModel;
+    use cpg_hoap2::walk::Support;
     use cpg_lab::retarget::{RetargetOptions, human_walk, retarget};
     let sk = skeleton35();
     let trials: Vec<_> =

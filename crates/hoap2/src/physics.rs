@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use nalgebra::{Point3, UnitQuaternion};
+use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 
 use crate::{Error, Result, Robot};
 
@@ -357,22 +357,56 @@ pub fn standing_height_m(robot: &Robot, shapes: &[Shape], q_rad: &[f64]) -> Resu
     Ok(-lowest)
 }
 
+/// Each link's mass and centre of mass in its own frame, for the robot's joints' child links and the root.
+#[derive(Debug, Clone)]
+pub struct MassModel {
+    root: (f64, Vector3<f64>),
+    links: Vec<(f64, Vector3<f64>)>,
+}
+
+impl MassModel {
+    /// Reads the inertials of URDF `text` for `robot`'s links.
+    pub fn from_urdf(robot: &Robot, text: &str, path: &std::path::Path) -> Result<MassModel> {
+        let r = urdf_rs::read_from_string(text)
+            .map_err(|e| Error::Urdf { path: path.to_owned(), reason: e.to_string() })?;
+        let of = |name: &str| -> Result<(f64, Vector3<f64>)> {
+            let l = r
+                .links
+                .iter()
+                .find(|l| l.name == name)
+                .ok_or_else(|| Error::Urdf { path: path.to_owned(), reason: format!("no link '{name}'") })?;
+            Ok((l.inertial.mass.value, Vector3::from(*l.inertial.origin.xyz)))
+        };
+        let root_name = r
+            .links
+            .iter()
+            .map(|l| l.name.as_str())
+            .find(|n| !r.joints.iter().any(|j| j.child.link == *n))
+            .ok_or_else(|| Error::Urdf { path: path.to_owned(), reason: "no root link".into() })?;
+        Ok(MassModel { root: of(root_name)?, links: robot.joints.iter().map(|j| of(&j.child)).collect::<Result<_>>()? })
+    }
+
+    /// Each link's centre of mass and mass in the trunk frame for link `poses` (one per joint).
+    pub(crate) fn points(&self, poses: &[Isometry3<f64>], out: &mut Vec<(f64, Vector3<f64>)>) {
+        out.clear();
+        out.push(self.root);
+        for (pose, (m, c)) in poses.iter().zip(&self.links) {
+            out.push((*m, (pose * Point3::from(*c)).coords));
+        }
+    }
+}
+
+pub(crate) fn com_of(points: &[(f64, Vector3<f64>)]) -> Vector3<f64> {
+    let m: f64 = points.iter().map(|p| p.0).sum();
+    points.iter().map(|(mi, c)| c * *mi).sum::<Vector3<f64>>() / m
+}
+
 /// The whole body's centre of mass in the trunk frame for pose `q_rad`, metres.
 pub fn centre_of_mass_m(robot: &Robot, urdf: &str, path: &Path, q_rad: &[f64]) -> Result<[f64; 3]> {
-    let r = parse(urdf, path)?;
     let names: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
-    let poses = robot.link_poses(&names, q_rad)?;
-    let (mut sum, mut mass) = (nalgebra::Vector3::zeros(), 0.0);
-    for link in &r.links {
-        let pose = match robot.joints.iter().position(|j| j.child == link.name) {
-            Some(k) => poses[k],
-            None => nalgebra::Isometry3::identity(),
-        };
-        let m = link.inertial.mass.value;
-        sum += (pose * Point3::from(*link.inertial.origin.xyz)).coords * m;
-        mass += m;
-    }
-    let c = sum / mass;
+    let mut pts = Vec::with_capacity(robot.joints.len() + 1);
+    MassModel::from_urdf(robot, urdf, path)?.points(&robot.link_poses(&names, q_rad)?, &mut pts);
+    let c = com_of(&pts);
     Ok([c.x, c.y, c.z])
 }
 

@@ -15,10 +15,10 @@
 //! joint angles and what was planned and what results (the multi-body ZMP,
 //! its margin to the support polygon).
 
-use nalgebra::{Isometry3, Matrix3, Matrix4, Point3, Translation3, Unit, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Isometry3, Matrix3, Matrix4, Translation3, Unit, UnitQuaternion, Vector3, Vector4};
 
 use crate::kinematics::SOLE_IN_ANKLE_M;
-use crate::physics::home_pose_rad;
+use crate::physics::{MassModel, com_of, home_pose_rad};
 use crate::{Error, Result, Robot};
 
 /// Gravity, m/s².
@@ -72,6 +72,17 @@ pub enum Support {
     Left,
     /// The right sole only.
     Right,
+}
+
+impl Support {
+    /// `double`, `left` or `right`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Support::Double => "double",
+            Support::Left => "left",
+            Support::Right => "right",
+        }
+    }
 }
 
 /// A planned walk, every frame at [`WalkPlan::rate_hz`].
@@ -293,50 +304,6 @@ impl Leg {
     }
 }
 
-/// Each link's mass and centre of mass in its own frame, for the robot's joints' child links and the root.
-#[derive(Debug, Clone)]
-pub struct MassModel {
-    root: (f64, Vector3<f64>),
-    links: Vec<(f64, Vector3<f64>)>,
-}
-
-impl MassModel {
-    /// Reads the inertials of URDF `text` for `robot`'s links.
-    pub fn from_urdf(robot: &Robot, text: &str, path: &std::path::Path) -> Result<MassModel> {
-        let r = urdf_rs::read_from_string(text)
-            .map_err(|e| Error::Urdf { path: path.to_owned(), reason: e.to_string() })?;
-        let of = |name: &str| -> Result<(f64, Vector3<f64>)> {
-            let l = r
-                .links
-                .iter()
-                .find(|l| l.name == name)
-                .ok_or_else(|| Error::Urdf { path: path.to_owned(), reason: format!("no link '{name}'") })?;
-            Ok((l.inertial.mass.value, Vector3::from(*l.inertial.origin.xyz)))
-        };
-        let root_name = r
-            .links
-            .iter()
-            .map(|l| l.name.as_str())
-            .find(|n| !r.joints.iter().any(|j| j.child.link == *n))
-            .ok_or_else(|| Error::Urdf { path: path.to_owned(), reason: "no root link".into() })?;
-        Ok(MassModel { root: of(root_name)?, links: robot.joints.iter().map(|j| of(&j.child)).collect::<Result<_>>()? })
-    }
-
-    /// Each link's centre of mass and mass in the trunk frame for link `poses` (one per joint).
-    fn points(&self, poses: &[Isometry3<f64>], out: &mut Vec<(f64, Vector3<f64>)>) {
-        out.clear();
-        out.push(self.root);
-        for (pose, (m, c)) in poses.iter().zip(&self.links) {
-            out.push((*m, (pose * Point3::from(*c)).coords));
-        }
-    }
-}
-
-fn com_of(points: &[(f64, Vector3<f64>)]) -> Vector3<f64> {
-    let m: f64 = points.iter().map(|p| p.0).sum();
-    points.iter().map(|(mi, c)| c * *mi).sum::<Vector3<f64>>() / m
-}
-
 /// Where each foot is and which carries the body, from the step timing.
 struct Footsteps {
     /// Per frame: left ankle, right ankle (world), support.
@@ -347,7 +314,8 @@ struct Footsteps {
     left_strikes: Vec<usize>,
 }
 
-fn sample(profile: &[f64], s: f64) -> f64 {
+/// A profile sampled uniformly over [0, 1], at `s` (clamped), linear between samples.
+pub fn sample(profile: &[f64], s: f64) -> f64 {
     let n = profile.len();
     if n == 0 {
         return 0.0;

@@ -6,7 +6,8 @@
 //! [`style`] says how much of the human's joint cycles the robot keeps.
 
 use cpg_hoap2::Robot;
-use cpg_hoap2::walk::{MassModel, WalkParams, WalkPlan};
+use cpg_hoap2::physics::MassModel;
+use cpg_hoap2::walk::{WalkParams, WalkPlan};
 use cpg_mocap::Positions;
 
 use crate::{Error, Result};
@@ -61,17 +62,9 @@ fn cyclic(v: &[f64], s: f64) -> f64 {
     v[i] * (1.0 - f) + v[(i + 1) % n] * f
 }
 
-/// `v[a..=b]` resampled to `n` points, linear.
+/// `v` resampled to `n` points from its first to its last, linear.
 fn resample(v: &[f64], n: usize) -> Vec<f64> {
-    let m = v.len();
-    (0..n)
-        .map(|k| {
-            let x = k as f64 / (n - 1) as f64 * (m - 1) as f64;
-            let i = (x.floor() as usize).min(m.saturating_sub(2));
-            let f = x - i as f64;
-            v[i] * (1.0 - f) + v[(i + 1).min(m - 1)] * f
-        })
-        .collect()
+    (0..n).map(|k| cpg_hoap2::walk::sample(v, k as f64 / (n - 1) as f64)).collect()
 }
 
 /// The sagittal angle of segment `a → b` from the downward vertical, positive forward, degrees.
@@ -470,6 +463,46 @@ pub fn style(human: &HumanWalk, plan: &WalkPlan) -> Vec<StyleRow> {
         });
     }
     out
+}
+
+/// What a plan asks of the robot: its joints' limits and speeds, and its ZMP margins.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlanChecks {
+    /// Joints that leave their position range somewhere.
+    pub outside_limits: Vec<String>,
+    /// The fastest joint and its speed, rad/s.
+    pub fastest_joint: (String, f64),
+    /// The share of frames whose ZMP lies inside the support polygon.
+    pub zmp_inside_share: f64,
+    /// The ZMP's margin over the single-support frames, metres.
+    pub single_support_margin_m: crate::stats::Spread,
+}
+
+/// Checks `plan` against `robot`'s limits.
+pub fn check_plan(plan: &WalkPlan, robot: &Robot) -> PlanChecks {
+    let (n, d) = (plan.n_frames(), plan.joints.len());
+    let mut fastest = (String::new(), 0.0);
+    let mut outside = Vec::new();
+    for (k, j) in robot.joints.iter().enumerate() {
+        let q = |f: usize| plan.q_rad[f * d + k];
+        if (0..n).any(|f| q(f) < j.lower_rad - 1e-9 || q(f) > j.upper_rad + 1e-9) {
+            outside.push(j.name.clone());
+        }
+        for f in 1..n {
+            let v = (q(f) - q(f - 1)).abs() * plan.rate_hz;
+            if v > fastest.1 {
+                fastest = (j.name.clone(), v);
+            }
+        }
+    }
+    let single: Vec<f64> =
+        (0..n).filter(|&f| plan.support[f] != cpg_hoap2::walk::Support::Double).map(|f| plan.margin_m[f]).collect();
+    PlanChecks {
+        outside_limits: outside,
+        fastest_joint: fastest,
+        zmp_inside_share: plan.margin_m.iter().filter(|m| **m >= 0.0).count() as f64 / n.max(1) as f64,
+        single_support_margin_m: crate::stats::Spread::of(&single),
+    }
 }
 
 /// The robot's walk from the human's: parameters, plan, style.

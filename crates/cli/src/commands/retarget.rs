@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use cpg_hoap2::Robot;
-use cpg_hoap2::walk::{MassModel, Support};
-use cpg_lab::retarget::{RetargetOptions, human_walk, retarget};
+use cpg_hoap2::physics::MassModel;
+use cpg_lab::retarget::{RetargetOptions, check_plan, human_walk, retarget};
 
 use crate::output::{Destination, check_writable, write_output};
 
@@ -17,17 +17,6 @@ pub struct Retarget<'a> {
     pub report: Option<&'a Path>,
     pub rate_hz: Option<f64>,
     pub bvh_unit_mm: Option<f64>,
-}
-
-fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    let x = q * (s.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    s[i] * (1.0 - f) + s[(i + 1).min(s.len() - 1)] * f
 }
 
 pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
@@ -52,26 +41,8 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
     let (params, plan, style) = retarget(&human, &robot, &mass, &a.options)?;
     let n = plan.n_frames();
     let d = plan.joints.len();
-    // Joint limits and speeds the plan asks for.
-    let mut speed_max: (f64, String) = (0.0, String::new());
-    let mut outside = Vec::new();
-    for (k, j) in robot.joints.iter().enumerate() {
-        for f in 0..n {
-            let q = plan.q_rad[f * d + k];
-            if q < j.lower_rad - 1e-9 || q > j.upper_rad + 1e-9 {
-                outside.push(j.name.clone());
-                break;
-            }
-        }
-        for f in 1..n {
-            let v = (plan.q_rad[f * d + k] - plan.q_rad[(f - 1) * d + k]).abs() * plan.rate_hz;
-            if v > speed_max.0 {
-                speed_max = (v, j.name.clone());
-            }
-        }
-    }
-    let single: Vec<f64> = (0..n).filter(|&f| plan.support[f] != Support::Double).map(|f| plan.margin_m[f]).collect();
-    let inside = plan.margin_m.iter().filter(|m| **m >= 0.0).count() as f64 / n as f64;
+    let checks = check_plan(&plan, &robot);
+    let margin = &checks.single_support_margin_m;
     write_output(a.output, |w| {
         write!(w, "time_s")?;
         for j in &plan.joints {
@@ -84,11 +55,7 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
                 write!(w, ",{v:.7}")?;
             }
             let (t, c, z) = (plan.trunk_m[f], plan.com_m[f], plan.zmp_m[f]);
-            let s = match plan.support[f] {
-                Support::Double => "double",
-                Support::Left => "left",
-                Support::Right => "right",
-            };
+            let s = plan.support[f].as_str();
             writeln!(
                 w,
                 ",{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{s}",
@@ -119,18 +86,18 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
     );
     eprintln!(
         "ZMP inside the support polygon in {:.1} % of {} frames; margin in single support: median {:.1} mm, lowest {:.1} mm; IK residual {:.1e} m",
-        100.0 * inside,
+        100.0 * checks.zmp_inside_share,
         n,
-        1e3 * quantile(&single, 0.5),
-        1e3 * quantile(&single, 0.0),
+        1e3 * margin.median,
+        1e3 * margin.min,
         plan.ik_residual_m
     );
     eprintln!(
         "fastest joint {:.2} rad/s ({}, limit {} rad/s); outside a position limit: {}",
-        speed_max.0,
-        speed_max.1,
-        robot.joint(&speed_max.1).map(|j| j.velocity_rad_s).unwrap_or(f64::NAN),
-        if outside.is_empty() { "none".to_owned() } else { outside.join(", ") }
+        checks.fastest_joint.1,
+        checks.fastest_joint.0,
+        robot.joint(&checks.fastest_joint.0).map(|j| j.velocity_rad_s).unwrap_or(f64::NAN),
+        if checks.outside_limits.is_empty() { "none".to_owned() } else { checks.outside_limits.join(", ") }
     );
     for s in &style {
         eprintln!(
@@ -154,11 +121,8 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
             },
             "frames": n,
             "rate_hz": plan.rate_hz,
-            "zmp_inside_share": inside,
-            "zmp_margin_single_support_m": {"median": quantile(&single, 0.5), "min": quantile(&single, 0.0)},
+            "checks": checks,
             "ik_residual_m": plan.ik_residual_m,
-            "fastest_joint": {"joint": speed_max.1, "rad_s": speed_max.0},
-            "outside_limits": outside,
             "steady_stride_frames": [plan.steady_stride.0, plan.steady_stride.1],
             "style": style,
         });

@@ -49,9 +49,16 @@ def score(walk, gains: Gains, seconds: float, planned_speed_m_s: float) -> tuple
     return s / len(runs), runs
 
 
-def planned_speed(walk) -> float:
-    t, joints, q, support = walk
-    return 0.05 if support is None else max(1e-3, 0.06)
+def planned_speed(path: str) -> float:
+    """The walk's planned speed: its trunk's advance (``trunk_x_m``) over its duration, m/s."""
+    import numpy as np
+
+    with open(path, encoding="utf-8") as f:
+        header = f.readline().strip().split(",")
+    if "trunk_x_m" not in header:
+        raise ValueError(f"{path}: line 1: no trunk_x_m column (give cpg retarget's CSV)")
+    d = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[0, header.index("trunk_x_m")], max_rows=2_000_000)
+    return max(1e-3, float(d[-1, 1] - d[0, 1]) / float(d[-1, 0] - d[0, 0]))
 
 
 def _worker(args):
@@ -60,6 +67,7 @@ def _worker(args):
     trajectory, storage, name, trials, seconds, seed = args
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     walk = read_trajectory(trajectory)
+    speed = planned_speed(trajectory)
     study = optuna.load_study(study_name=name, storage=storage, sampler=optuna.samplers.TPESampler(seed=seed))
 
     def objective(trial):
@@ -67,7 +75,7 @@ def _worker(args):
             **{k: trial.suggest_float(k, lo, hi) for k, (lo, hi) in SPACE.items()},
             phase_reset=trial.suggest_categorical("phase_reset", [False, True]),
         )
-        value, runs = score(walk, g, seconds, planned_speed(walk))
+        value, runs = score(walk, g, seconds, speed)
         trial.set_user_attr("runs", [{k: v for k, v in r.items()} for r in runs])
         return value
 
@@ -95,6 +103,7 @@ def main(argv=None) -> int:
         return 2
     try:
         read_trajectory(a.trajectory)
+        planned_speed(a.trajectory)
     except (OSError, ValueError) as e:
         print(f"cpg.sim_search: {e}", file=sys.stderr)
         return 2
