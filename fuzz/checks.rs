@@ -82,13 +82,13 @@ pub fn bvh(data: &[u8]) {
 pub fn config(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else { return };
     let Ok(c) = cpg_lab::Config::from_toml(text, Path::new("fuzz.toml"), Path::new("/nonexistent")) else { return };
-    let max = cpg_lab::prepare::MAX_TRAINING_SAMPLES;
+    let max = cpg_lab::config::MAX_TRAINING_SAMPLES;
     assert!(c.data.samples_per_segment <= max && c.training.washout <= max);
     assert!(c.training.validation_samples <= max && c.training.noise_draws <= 100);
     assert!(c.data.rate_hz.is_finite() && c.data.rate_hz > 0.0);
     // Everything derived from it without reading data must work or fail cleanly.
     if let Ok(s) = cpg_lab::train::train_settings(&c) {
-        assert!(s.penalties.len() <= cpg_lab::train::MAX_PENALTIES);
+        assert!(s.penalties.len() <= cpg_lab::config::MAX_PENALTIES);
     }
     let _ = cpg_lab::train::reservoir_config(&c, c.data.channels.len().max(1));
     let _ = c.to_toml(Path::new("/nonexistent"));

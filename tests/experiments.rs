@@ -14,7 +14,8 @@ fn config(name: &str) -> Config {
 }
 
 fn quick(name: &str) -> Outcome {
-    experiment::run(&config(name), Options { quick: true }, &Quiet).unwrap_or_else(|e| panic!("{name}: {e}"))
+    experiment::run(&config(name), Options { quick: true, threads: 2 }, &Quiet)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 /// The running stride of 35_17 (about 88 frames between upward zero
@@ -43,7 +44,7 @@ fn running_teacher_is_one_stride_of_35_17() {
 fn e1_paper_protocol_stays_bounded_and_chooses_beyond_the_papers_grid() {
     let c = config("e1-paper");
     let seeds: Vec<u64> = (1..=5).collect();
-    let (p, models) = experiment::train_seeds(&c, &seeds, &Quiet).unwrap();
+    let (p, models) = experiment::train_seeds(&c, &seeds, 2, &Quiet).unwrap();
     let t = &p.teachers[0];
     let warmup = p.data.warmup.len(1);
     let teacher = experiment::stability::continuation(t, 1, warmup, 500);
@@ -246,7 +247,7 @@ fn e6_both_protocols_keep_the_phase_coupling() {
     let refs: Vec<&Config> = configs.iter().collect();
     // Run together (one pass over each seed's weights for both), every result
     // is the one each configuration gives alone.
-    let together = experiment::run_together(&refs, Options { quick: true }, &Quiet).unwrap();
+    let together = experiment::run_together(&refs, Options { quick: true, threads: 2 }, &Quiet).unwrap();
     for (name, both) in names.into_iter().zip(together) {
         let Outcome::Coupling(r) = quick(name) else { panic!("{name} is a coupling experiment") };
         let Outcome::Coupling(b) = both else { panic!("{name} together is a coupling experiment") };
@@ -279,4 +280,16 @@ fn e6_both_protocols_keep_the_phase_coupling() {
         assert_eq!(h.clamps.joints.len(), 22);
         assert_eq!(r.portraits.len(), 12);
     }
+}
+
+/// The thread count travels in the options: one thread and two give the
+/// same results, bit for bit (every number of the serialised outcome).
+#[test]
+fn an_experiment_gives_the_same_bits_on_one_and_two_threads() {
+    let c = config("e1");
+    let run = |threads: usize| {
+        let o = experiment::run(&c, Options { quick: true, threads }, &Quiet).unwrap();
+        serde_json::to_string(&o).unwrap()
+    };
+    assert_eq!(run(1), run(2));
 }

@@ -48,7 +48,7 @@ fn a_bvh_walk_trains_with_the_period_of_its_amc() {
     // channel is another angle (rotation about world axes, not the ASF femur axes).
     assert!((a - b).abs() <= 0.01 * a, "AMC period {a:.2} frames, BVH period {b:.2} frames");
     // The model keeps a skeleton it can export: an ASF written from the BVH hierarchy.
-    let (model, _) = cpg_lab::train::train(&from_bvh).unwrap();
+    let (model, _) = cpg_lab::train::train(&from_bvh, 2).unwrap();
     let asf = model.skeleton_asf.as_deref().unwrap();
     let kept = cpg_mocap::parse_asf("kept", asf.as_bytes()).unwrap();
     assert!(kept.bone_index("lfemur").is_some());

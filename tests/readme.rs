@@ -10,7 +10,7 @@ use cpg_reservoir::Generator;
 
 fn quick_start(path: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     let config = Config::load(path)?; // e.g. experiments/e1.toml
-    let (model, _data) = cpg_lab::train::train(&config)?; // the model `cpg train` writes
+    let (model, _data) = cpg_lab::train::train(&config, 2)?; // the model `cpg train` writes (2 threads)
     let mut g = Generator::new(&model);
     for _ in 0..120 {
         let hip_deg = g.step(&[])?; // one step per servo tick; allocates nothing

@@ -22,7 +22,7 @@ use cpg_regression::{PenaltyGrid, RidgePath};
 use cpg_reservoir::batch::{Run, free_runs};
 use cpg_reservoir::{
     Candidate, Generator, Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg, harvest,
-    teacher_forced_states, train, validate,
+    teacher_forced_states, train, train_on, validate,
 };
 
 /// `cargo xtask bench` options.
@@ -339,7 +339,7 @@ struct Memory {
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let e1 = cpg_lab::Config::load(&crate::root().join("experiments/e1-paper.toml"))?;
     let f = prepare(&e1)?;
-    let threads = rayon::current_num_threads();
+    let threads = crate::cores();
     println!("cargo xtask bench: {threads} threads\n");
     let cpg = build_cli()?;
     let dir = tempfile_dir()?;
@@ -349,7 +349,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 }
 
 fn run_in(args: &Args, e1: &cpg_lab::Config, f: &Prepared, cpg: &Path, dir: &Path) -> anyhow::Result<()> {
-    let threads = rayon::current_num_threads();
+    let threads = crate::cores();
     let mut memory = Memory::default();
     let models = many_streams(f, threads, args.baseline_step_us)?;
     one_stream(&models)?;
@@ -605,6 +605,7 @@ fn split_rule(f: &Prepared) -> anyhow::Result<()> {
 /// The training phases at N = 300, each beside the time to stream W once.
 fn phases(f: &Prepared) -> anyhow::Result<()> {
     println!("\n## Training phases (N = 300, all cores)\n");
+    let threads = crate::cores();
     println!("| what | time | per network step, × stream-W floor | target | verdict |");
     println!("|---|---:|---:|---|---|");
     for precision in [Precision::F32, Precision::F64] {
@@ -644,7 +645,7 @@ fn phases(f: &Prepared) -> anyhow::Result<()> {
                             .filter_map(|&l| p.solve(l).ok().map(|readout| Candidate { penalty: l, readout }))
                     })
                     .collect();
-                black_box(validate(&res, &candidates, data, &settings).map(|c| c.0.len()).ok());
+                black_box(validate(&res, &candidates, data, &settings, threads).map(|c| c.0.len()).ok());
             })
             .as_secs_f64();
             let (target, v) =
@@ -659,7 +660,7 @@ fn phases(f: &Prepared) -> anyhow::Result<()> {
         }
         let settings = TrainSettings::wyffels_schrauwen_2009();
         let t = measure(|| {
-            black_box(train(&res, data, &settings).map(|t| t.penalty).ok());
+            black_box(train_on(&res, data, &settings, threads).map(|t| t.penalty).ok());
         })
         .as_secs_f64();
         row(format!("training end to end, E1, 5 draws ({tag})"), t, (2199 + 91 * 5 * 500 + 2200) as f64, "", "");
@@ -1001,7 +1002,7 @@ fn tune_throughput(cpg: &Path, dir: &Path, memory: &mut Memory) -> anyhow::Resul
     println!(
         "{n} configurations in {} on {} cores: **{:.1} configurations per minute** (best passed on {best} of {seeds} seeds)",
         secs(ran.wall_s),
-        rayon::current_num_threads(),
+        crate::cores(),
         n as f64 / (ran.wall_s / 60.0)
     );
     memory.rows.push((format!("`cpg tune` ({n} configurations × {seeds} seeds)"), ran.peak_mib));

@@ -94,6 +94,12 @@ enum Command {
     },
 }
 
+/// The cores this machine offers: the thread count evaluation, training and
+/// benches are given (the library reads no ambient pool size).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

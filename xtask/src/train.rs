@@ -45,7 +45,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
             None => c.output.model.clone(),
         };
         let t = Instant::now();
-        let (m, p) = cpg_lab::train::train(&c).with_context(|| format!("training {name}"))?;
+        let (m, p) = cpg_lab::train::train(&c, crate::cores()).with_context(|| format!("training {name}"))?;
         m.save(&model_path)?;
         let pv = &m.provenance;
         println!(

@@ -4,7 +4,6 @@
 //! measures; `cpg-mocap`, `cpg-reservoir`, `cpg-hoap2` below it).
 
 mod commands;
-mod npy;
 mod output;
 
 use std::path::PathBuf;
@@ -391,6 +390,11 @@ struct RunArgs {
     control_file: Option<PathBuf>,
 }
 
+/// The threads long work runs on: the machine's cores.
+pub(crate) fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 fn main() -> ExitCode {
     output::install_signal_cleanup();
     let cli = Cli::parse();
@@ -477,8 +481,14 @@ fn main() -> ExitCode {
             })
         }
         Command::Tune { config, budget, seeds, seconds, search_seed, output, json } => {
-            let s =
-                cpg_lab::tune::TuneSettings { budget, seeds, long_run_s: seconds, search_seed, ..Default::default() };
+            let s = cpg_lab::tune::TuneSettings {
+                budget,
+                seeds,
+                long_run_s: seconds,
+                search_seed,
+                threads: cores(),
+                ..Default::default()
+            };
             commands::tune(&config, &s, output.as_deref(), json)
         }
         Command::View {

@@ -335,7 +335,8 @@ fn cpg_train_reproduces_the_reports_model() {
     let config = repo().join("experiments/e4.toml");
     ok(&cpg(&["train".as_ref(), "-c".as_ref(), config.as_os_str(), "-o".as_ref(), out.as_os_str()]));
     let c = cpg_lab::Config::load(&config).unwrap();
-    let (_, models) = cpg_lab::experiment::train_seeds(&c, &[c.reservoir.seed], &cpg_lab::experiment::Quiet).unwrap();
+    let (_, models) =
+        cpg_lab::experiment::train_seeds(&c, &[c.reservoir.seed], 2, &cpg_lab::experiment::Quiet).unwrap();
     assert_eq!(std::fs::read(&out).unwrap(), models[0].to_bytes().unwrap());
 }
 

@@ -31,6 +31,16 @@ fn the_robot_files_travel_with_the_program() {
     assert!(o.status.success(), "{err}");
     let text = std::fs::read_to_string(dir.path().join("j.csv")).unwrap();
     assert_eq!(text.lines().next().unwrap().split(',').count(), 1 + 3 * 22, "22 joints from the built-in map");
+    // `cpg view` draws the robot from the built-in files too.
+    let o = Command::new(&bin)
+        .args(["view", "-m", "walk22.cpg", "--seconds", "1", "-o", "v.html"])
+        .current_dir(dir.path())
+        .env_remove("CARGO_MANIFEST_DIR")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("HOAP-2"), "{err}");
+    assert!(std::fs::read_to_string(dir.path().join("v.html")).unwrap().contains("HOAP-2"));
     // A missing file is still an error, not a silent fallback to the built-in robot.
     let o = Command::new(&bin)
         .args(["hoap2", "-m", "walk22.cpg", "--seconds", "1", "--urdf", "assets/hoap2/hoap2.urdf", "-o", "k.csv"])

@@ -16,6 +16,16 @@ use crate::error::{Error, Result};
 pub const MAX_CONFIG_BYTES: usize = 1 << 20;
 /// The most `[[data.segments]]` a configuration has.
 pub const MAX_SEGMENTS: usize = 1000;
+/// Most samples a training sequence may have (per output channel): bounds
+/// `data.samples_per_segment` times the blocks, `data.tempo.samples` and
+/// the training section's sample counts.
+pub const MAX_TRAINING_SAMPLES: usize = 2_000_000;
+/// Most steps of a validation run (`[training.orbit]`).
+pub const MAX_VALIDATION_STEPS: usize = 200_000;
+/// Most penalties in a grid (`training.penalty_log10`).
+pub const MAX_PENALTIES: usize = 1000;
+/// Most noise draws per candidate (`training.noise_draws`).
+pub const MAX_NOISE_DRAWS: usize = 100;
 
 /// A whole configuration file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -328,7 +338,7 @@ impl ExperimentSection {
         if let Some(st) = &self.stability {
             secs("stability.long_run_s", st.long_run_s, 1.0, DAY_S)?;
             secs("stability.quick_long_run_s", st.quick_long_run_s, 1.0, DAY_S)?;
-            if !(1..=crate::prepare::MAX_TRAINING_SAMPLES).contains(&st.first_samples) {
+            if !(1..=MAX_TRAINING_SAMPLES).contains(&st.first_samples) {
                 return fail("stability.first_samples", format!("{}; expected 1 to 2000000", st.first_samples));
             }
             st.push.check().map_err(|m| ("experiment.stability.push".to_owned(), m))?;
@@ -816,7 +826,7 @@ impl Config {
             return Err(bad("data.max_seam_excess", format!("{}; expected a number >= 0", d.max_seam_excess)));
         }
         // Every size taken from the file is bounded here, before any data is read or allocated.
-        let max_samples = crate::prepare::MAX_TRAINING_SAMPLES;
+        let max_samples = MAX_TRAINING_SAMPLES;
         let within = |field: &str, v: usize, lo: usize, hi: usize| {
             if (lo..=hi).contains(&v) { Ok(()) } else { Err(bad(field, format!("{v}; expected {lo} to {hi}"))) }
         };
@@ -852,7 +862,7 @@ impl Config {
         }
         within("training.washout", self.training.washout, 0, max_samples)?;
         within("training.validation_samples", self.training.validation_samples, 1, max_samples)?;
-        within("training.noise_draws", self.training.noise_draws, 1, crate::train::MAX_NOISE_DRAWS)?;
+        within("training.noise_draws", self.training.noise_draws, 1, MAX_NOISE_DRAWS)?;
         if let Some(t) = tempo {
             if d.controls != [t.control.clone()] {
                 return Err(bad(
@@ -891,10 +901,10 @@ impl Config {
             return Err(bad("training.penalty_log10", "needs finite {start, step, stop} with step > 0".into()));
         }
         let n_penalties = ((p.start - p.stop).abs() / p.step).floor() + 1.0;
-        if n_penalties.is_nan() || n_penalties > crate::train::MAX_PENALTIES as f64 {
+        if n_penalties.is_nan() || n_penalties > MAX_PENALTIES as f64 {
             return Err(bad(
                 "training.penalty_log10",
-                format!("gives {n_penalties} penalties; at most {} (use a larger step)", crate::train::MAX_PENALTIES),
+                format!("gives {n_penalties} penalties; at most {} (use a larger step)", MAX_PENALTIES),
             ));
         }
         if !(p.start.abs() <= 300.0 && p.stop.abs() <= 300.0) {

@@ -26,9 +26,46 @@ pub enum Error {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// Data that cannot be turned into a training sequence.
+    /// A data file (a table of control values) that does not hold what was
+    /// expected at a line.
+    #[error("{}", file_message(file, *line, message))]
+    DataFile {
+        /// The file.
+        file: PathBuf,
+        /// Its line, when known (1-based).
+        line: Option<usize>,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// A name that is not there: a mocap channel, a point of the skeleton, a
+    /// control input, a channel a joint map needs.
+    #[error("{message}")]
+    Name {
+        /// The name as given.
+        name: String,
+        /// The whole message (it names the name).
+        message: String,
+    },
+    /// Control values that do not fit the model's control inputs.
     #[error("{0}")]
-    Data(String),
+    Control(String),
+    /// Sizes that do not fit each other: values that are not frames of the
+    /// channels, runs shorter than the measure needs.
+    #[error("{0}")]
+    Shape(String),
+    /// A number outside its bounds: a rate, a duration, a size of work.
+    #[error("{0}")]
+    Bound(String),
+    /// The data lacks what the work needs: a rhythm, a looped segment, a
+    /// teacher cycle, a full stride, a skeleton.
+    #[error("{0}")]
+    Unusable(String),
+    /// An output format that cannot be written as asked.
+    #[error("{0}")]
+    Format(String),
+    /// A file that cannot be read or written (bounded reads, atomic writes).
+    #[error(transparent)]
+    File(#[from] cpg_io::Error),
     /// A request larger than the stated budget.
     #[error("{what} needs about {needed_mib} MiB; the limit is {limit_mib} MiB ({hint})")]
     Budget {
@@ -70,6 +107,25 @@ fn config_message(file: &std::path::Path, line: Option<usize>, field: &str, mess
         None => file.display().to_string(),
     };
     if field.is_empty() { format!("{place}: {message}") } else { format!("{place}: `{field}` {message}") }
+}
+
+impl Error {
+    /// A [`Error::Name`] error about `name`.
+    pub(crate) fn name(name: &str, message: impl Into<String>) -> Error {
+        Error::Name { name: name.to_owned(), message: message.into() }
+    }
+
+    /// A [`Error::DataFile`] error about `file` at `line`.
+    pub(crate) fn data_file(file: &std::path::Path, line: Option<usize>, message: impl Into<String>) -> Error {
+        Error::DataFile { file: file.to_owned(), line, message: message.into() }
+    }
+}
+
+fn file_message(file: &std::path::Path, line: Option<usize>, message: &str) -> String {
+    match line {
+        Some(l) => format!("{}:{l}: {message}", file.display()),
+        None => format!("{}: {message}", file.display()),
+    }
 }
 
 /// Result alias for this crate.

@@ -30,7 +30,7 @@
 //! # fn main() -> Result<(), cpg_lab::Error> {
 //! use cpg_lab::{Config, experiment};
 //! let config = Config::load("experiments/e1.toml".as_ref())?;
-//! let (model, _data) = cpg_lab::train::train(&config)?;     // the model `cpg train` writes
+//! let (model, _data) = cpg_lab::train::train(&config, 2)?;  // the model `cpg train` writes
 //! model.save(&config.output.model)?;
 //! let outcome = experiment::run(&config, experiment::Options::default(), &experiment::Quiet)?;
 //! let (passed, seeds) = outcome.passed();
@@ -44,10 +44,13 @@ pub mod channels;
 pub mod config;
 mod error;
 pub mod experiment;
+pub mod fit;
+pub mod format;
 pub mod measure;
 pub mod memory;
 pub mod prepare;
 pub mod retarget;
+pub mod run;
 pub mod scene;
 pub mod schedule;
 pub mod stats;
@@ -56,5 +59,16 @@ pub mod train;
 pub mod tune;
 
 pub use config::Config;
+
+/// Runs `work` on a rayon pool of its own with `threads` threads, so that
+/// every parallel loop inside uses that many and no more, whatever the
+/// global pool holds.
+pub fn in_pool<T: Send>(threads: usize, work: impl FnOnce() -> Result<T> + Send) -> Result<T> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| Error::Unusable(format!("a pool of {threads} threads: {e}")))?;
+    pool.install(work)
+}
 pub use error::{Error, Result};
 pub use schedule::ControlSchedule;

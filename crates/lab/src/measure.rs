@@ -27,6 +27,7 @@ use cpg_reservoir::batch::{Controls, Run};
 use cpg_reservoir::{Hold, OrbitStay, Teacher, TrainedCpg, orbit_nmse};
 use serde::Serialize;
 
+use crate::config::PushSection;
 use crate::error::{Error, Result};
 use crate::schedule::ControlSchedule;
 
@@ -197,7 +198,7 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
         || cycle.len() < 2 * d
         || !cycle.len().is_multiple_of(d)
     {
-        return Err(Error::Data(format!(
+        return Err(Error::Shape(format!(
             "runs of {} and {} values and a cycle of {} values are not frames of {d} outputs",
             a.len(),
             b.len(),
@@ -207,7 +208,7 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
     let p = cycle.len() / d;
     let t = a.len() / d;
     if t < release + 4 * p {
-        return Err(Error::Data(format!(
+        return Err(Error::Shape(format!(
             "{} steps after the release are fewer than 4 cycles of {p}",
             t.saturating_sub(release)
         )));
@@ -270,8 +271,17 @@ pub struct Push {
     pub values: Vec<f64>,
 }
 
+/// The push `p` describes for teacher `t` of a model with `d` outputs at
+/// `rate_hz`: each output held at its cycle's maximum plus `p.above_max`.
+pub fn push_for(p: &PushSection, t: &Teacher, d: usize, rate_hz: f64) -> Push {
+    let values =
+        (0..d).map(|c| column(&t.cycle, d, c).into_iter().fold(f64::NEG_INFINITY, f64::max) + p.above_max).collect();
+    Push { at: (p.at_s * rate_hz).round() as usize, len: ((p.hold_s * rate_hz).round() as usize).max(1), values }
+}
+
 /// Runs `model` freely for `steps` from its start state under `controls`;
-/// returns the normalised outputs (`steps × D`). An optional push holds the fed-back outputs.
+/// returns the normalised outputs (`steps × D`). An optional push holds the
+/// fed-back outputs. On the calling thread ([`free_runs`] takes a thread count).
 pub fn free_run(model: &TrainedCpg, controls: &ControlSchedule, steps: usize, push: Option<&Push>) -> Result<Vec<f64>> {
     free_run_with(model, controls, steps, push, None)
 }
@@ -284,7 +294,7 @@ pub fn free_run_with(
     push: Option<&Push>,
     noise: Option<(f64, u64)>,
 ) -> Result<Vec<f64>> {
-    let mut y = free_runs(&[RunSpec { model, controls, steps, push, noise }])?;
+    let mut y = free_runs(&[RunSpec { model, controls, steps, push, noise }], 1)?;
     Ok(y.pop().unwrap_or_default())
 }
 
@@ -312,24 +322,19 @@ impl Controls for At<'_> {
     }
 }
 
-/// The threads a free run may use: every core from outside a parallel loop,
-/// one inside it (the loop's other iterations keep the other cores busy).
-pub fn threads() -> usize {
-    if rayon::current_thread_index().is_some() { 1 } else { rayon::current_num_threads() }
-}
-
 /// Runs several free runs at once (see [`cpg_reservoir::batch`]): runs whose
 /// models share a reservoir's weights advance with one matrix product per
-/// step. Returns each run's normalised outputs (`steps × D`), the same bits as
-/// [`free_run_with`] gives for it alone; a run that diverged is an error.
-pub fn free_runs(runs: &[RunSpec<'_>]) -> Result<Vec<Vec<f64>>> {
-    free_runs_each(runs)?.into_iter().collect()
+/// step, a long run split by rows over `threads` threads. Returns each run's
+/// normalised outputs (`steps × D`), the same bits as [`free_run_with`]
+/// gives for it alone; a run that diverged is an error.
+pub fn free_runs(runs: &[RunSpec<'_>], threads: usize) -> Result<Vec<Vec<f64>>> {
+    free_runs_each(runs, threads)?.into_iter().collect()
 }
 
 /// [`free_runs`], with each run's outcome on its own: a run that diverged
 /// does not hide the others. The outer error is a schedule that does not fit its model.
-pub fn free_runs_each(runs: &[RunSpec<'_>]) -> Result<Vec<Result<Vec<f64>>>> {
-    free_runs_on(runs, threads())
+pub fn free_runs_each(runs: &[RunSpec<'_>], threads: usize) -> Result<Vec<Result<Vec<f64>>>> {
+    free_runs_on(runs, threads)
 }
 
 /// Reservoirs at least this large run one free run split over two cores when
@@ -378,11 +383,16 @@ pub struct Judged {
 
 /// Judges `model` by free runs of `steps` and the paper's push: at every
 /// control setting it was taught, or under `controls` against the teacher of
-/// the setting they end at.
-pub fn judge(model: &TrainedCpg, steps: usize, controls: Option<&ControlSchedule>) -> Result<Vec<Judged>> {
+/// the setting they end at; each setting's runs on `threads` threads.
+pub fn judge(
+    model: &TrainedCpg,
+    steps: usize,
+    controls: Option<&ControlSchedule>,
+    threads: usize,
+) -> Result<Vec<Judged>> {
     let rate = model.provenance.sample_rate_hz;
     if model.teachers.is_empty() {
-        return Err(Error::Data(
+        return Err(Error::Unusable(
             "the model has no teacher cycle (it was not trained on a looped periodic signal), so there is nothing to compare its rhythm with"
                 .into(),
         ));
@@ -393,27 +403,30 @@ pub fn judge(model: &TrainedCpg, steps: usize, controls: Option<&ControlSchedule
         Some(s) => {
             let mut last = vec![0.0; model.controls.len()];
             s.fill(usize::MAX / 2, rate, &mut last);
-            let t = model.teacher_for(&last).ok_or_else(|| Error::Data("no teacher".into()))?;
+            let t = model.teacher_for(&last).ok_or_else(|| Error::Unusable("no teacher".into()))?;
             vec![(s.clone(), t)]
         }
     };
     let mut out = Vec::with_capacity(settings.len());
     for (s, t) in settings {
         let p = t.cycle.len() / d;
-        let push = crate::experiment::stability::push_for(&crate::config::PushSection::default(), t, d, rate);
+        let push = push_for(&PushSection::default(), t, d, rate);
         let release = push.at + push.len;
         if steps < release + 4 * p {
-            return Err(Error::Data(format!(
+            return Err(Error::Shape(format!(
                 "{:.1} s of free run is too short for the push at 2 s and 4 cycles after it ({:.1} s)",
                 steps as f64 / rate,
                 (release + 4 * p) as f64 / rate
             )));
         }
         let after = (40 * p).min(steps - release);
-        let mut ys = free_runs(&[
-            RunSpec { model, controls: &s, steps, push: None, noise: None },
-            RunSpec { model, controls: &s, steps: release + after, push: Some(&push), noise: None },
-        ])?
+        let mut ys = free_runs(
+            &[
+                RunSpec { model, controls: &s, steps, push: None, noise: None },
+                RunSpec { model, controls: &s, steps: release + after, push: Some(&push), noise: None },
+            ],
+            threads,
+        )?
         .into_iter();
         let (y, pushed) = (ys.next().unwrap_or_default(), ys.next().unwrap_or_default());
         let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;

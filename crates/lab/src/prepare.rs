@@ -9,13 +9,8 @@ use cpg_mocap::cycle::{autocorrelation, best_loop, estimate_period, tile};
 use cpg_mocap::{Motion, Skeleton, ZScore};
 use cpg_reservoir::{Hold, OrbitStay, OutputChannel, Score, Scoring, Sequence, Teacher, TrainingData};
 
-use crate::config::{Config, OrbitSection, TempoSection};
+use crate::config::{Config, MAX_TRAINING_SAMPLES, MAX_VALIDATION_STEPS, OrbitSection, TempoSection};
 use crate::error::{Error, Result};
-
-/// Most samples a training sequence may have (per output channel).
-pub const MAX_TRAINING_SAMPLES: usize = 2_000_000;
-/// Most steps of a validation run.
-pub const MAX_VALIDATION_STEPS: usize = 200_000;
 
 /// The period of one segment and the loop cut from it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -264,7 +259,7 @@ pub fn read_recorded(c: &Config) -> Result<Recorded> {
                 let m = Motion::new(b.motion.channels().to_vec(), b.motion.values().to_vec(), d_sec.rate_hz)?;
                 parts.push(cut(m, s)?);
             }
-            let sk = first.ok_or_else(|| Error::Data("no segments".into()))?;
+            let sk = first.ok_or_else(|| Error::Unusable("no segments".into()))?;
             let asf = cpg_mocap::write_asf(&sk);
             (sk, asf)
         }
@@ -283,7 +278,7 @@ struct Read {
 fn select(c: &Config, rec: &Recorded) -> Result<Read> {
     let d_sec = &c.data;
     if rec.parts.len() != d_sec.segments.len() {
-        return Err(Error::Data(format!(
+        return Err(Error::Shape(format!(
             "{} motions for {} [[data.segments]] entries",
             rec.parts.len(),
             d_sec.segments.len()
@@ -298,7 +293,7 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
     let mut parts = Vec::with_capacity(rec.parts.len());
     for (k, m) in rec.parts.iter().enumerate() {
         if m.sample_rate_hz() != d_sec.rate_hz {
-            return Err(Error::Data(format!(
+            return Err(Error::Shape(format!(
                 "segment {}: {} Hz, the configuration says {} Hz (data.rate_hz)",
                 k + 1,
                 m.sample_rate_hz(),
@@ -339,7 +334,7 @@ fn loops(
         let x = r.z.apply(m)?.values().to_vec();
         let t = m.n_frames();
         let (p, ch, _) = gait_period(&x, d, lo, hi, period_channel).ok_or_else(|| {
-            Error::Data(format!(
+            Error::Unusable(format!(
                 "segment {} ({label}): no rhythm found between {} and {} s in its {t} frames (is the motion periodic?)",
                 k + 1,
                 d_sec.period_s[0],
@@ -347,14 +342,14 @@ fn loops(
             ))
         })?;
         let lp = best_loop(&x, d, p, d_sec.loop_cycles).ok_or_else(|| {
-            Error::Data(format!(
+            Error::Unusable(format!(
                 "segment {} ({label}): {} cycle(s) of {p:.1} frames do not fit its {t} frames",
                 k + 1,
                 d_sec.loop_cycles
             ))
         })?;
         if lp.seam_excess > d_sec.max_seam_excess {
-            return Err(Error::Data(format!(
+            return Err(Error::Unusable(format!(
                 "segment {} ({label}): the best loop of {} cycle(s) of {p:.1} frames jumps {:.2} σ beyond a typical step at its seam (data.max_seam_excess = {}); the period may be a harmonic: try data.period_s, data.period_channel or data.loop_cycles",
                 k + 1,
                 d_sec.loop_cycles,
@@ -410,7 +405,7 @@ fn tempo_sequences(c: &Config, tp: &TempoSection, cycle: &[f64], d: usize) -> Re
     let v = c.training.validation_samples;
     let n = tp.samples + v;
     if n > MAX_TRAINING_SAMPLES {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "data.tempo.samples + training.validation_samples = {n}; at most {MAX_TRAINING_SAMPLES}"
         )));
     }
@@ -445,7 +440,7 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
     let blocks = n_seg * d_sec.repeats;
     let total = blocks * spb + (blocks - 1) * morph;
     if total > MAX_TRAINING_SAMPLES {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "the training sequence would have {total} samples (segments × repeats × samples_per_segment + morphs); at most {MAX_TRAINING_SAMPLES}"
         )));
     }
@@ -518,12 +513,12 @@ fn recorded_sequences(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<S
     }
     let t = outs.len() / d;
     if c.training.score == "orbit" {
-        return Err(Error::Data(
+        return Err(Error::Unusable(
             "score = \"orbit\" needs looped segments (loop_cycles >= 1) to know each rhythm".into(),
         ));
     }
     if v + c.training.washout + 2 > t {
-        return Err(Error::Data(format!(
+        return Err(Error::Shape(format!(
             "{t} samples cannot hold a washout of {} and {v} validation samples",
             c.training.washout
         )));
@@ -574,8 +569,11 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
         (seqs, cycles, teachers)
     };
     let (validation, scoring) = if orbit {
-        let o =
-            c.training.orbit.as_ref().ok_or_else(|| Error::Data("score = \"orbit\" needs [training.orbit]".into()))?;
+        let o = c
+            .training
+            .orbit
+            .as_ref()
+            .ok_or_else(|| Error::Unusable("score = \"orbit\" needs [training.orbit]".into()))?;
         let w = &seqs.warmup.controls;
         let visited = match (&o.rates, &c.data.tempo, teachers.first()) {
             (Some(rates), Some(tp), Some(base)) => rates
@@ -651,10 +649,10 @@ fn orbit_run(
 ) -> Result<(Sequence, Scoring)> {
     let seq: Vec<usize> = o.sequence.clone().unwrap_or_else(|| (0..teachers.len()).collect());
     if seq.is_empty() {
-        return Err(Error::Data("training.orbit.sequence is empty".into()));
+        return Err(Error::Unusable("training.orbit.sequence is empty".into()));
     }
     if let Some(&k) = seq.iter().find(|&&k| k >= teachers.len()) {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "training.orbit.sequence names teacher {k}; there are {} (0-based)",
             teachers.len()
         )));
@@ -663,7 +661,7 @@ fn orbit_run(
     let (stay, ramp, settle) = (steps(o.stay_s), steps(o.ramp_s), steps(o.settle_s));
     let total_est = seq.len() * (stay + ramp);
     if total_est > MAX_VALIDATION_STEPS {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "the orbit validation run would have {total_est} steps; at most {MAX_VALIDATION_STEPS} (shorten training.orbit.stay_s)"
         )));
     }

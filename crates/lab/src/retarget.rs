@@ -157,13 +157,16 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
         let mut idx = std::collections::BTreeMap::new();
         for name in POINTS.iter().chain(&POINTS_R) {
             let i = p.point_index(name).ok_or_else(|| {
-                Error::Data(format!("trial {}: the skeleton has no point '{name}' (a CMU skeleton is expected)", k + 1))
+                Error::name(
+                    name,
+                    format!("trial {}: the skeleton has no point '{name}' (a CMU skeleton is expected)", k + 1),
+                )
             })?;
             idx.insert(*name, i);
         }
         let n = p.n_frames();
         if n < 3 || p.sample_rate_hz.is_nan() || p.sample_rate_hz <= 0.0 {
-            return Err(Error::Data(format!("trial {}: {n} frames at {} Hz", k + 1, p.sample_rate_hz)));
+            return Err(Error::Unusable(format!("trial {}: {n} frames at {} Hz", k + 1, p.sample_rate_hz)));
         }
         let up = [0.0, 1.0, 0.0];
         let root_k = idx["root"];
@@ -172,7 +175,7 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
         let flat = [travel[0], 0.0, travel[2]];
         let len = norm(flat);
         if len < 0.3 {
-            return Err(Error::Data(format!("trial {}: the body travels {len:.2} m; not a walk", k + 1)));
+            return Err(Error::Unusable(format!("trial {}: the body travels {len:.2} m; not a walk", k + 1)));
         }
         let forward = flat.map(|v| v / len);
         let t = Trial { p, idx, up };
@@ -260,7 +263,7 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
         }
     }
     if periods.is_empty() || lift_profiles.is_empty() || advance_profiles.is_empty() {
-        return Err(Error::Data("no full stride (two left touch-downs with a swing between) in the trials".into()));
+        return Err(Error::Unusable("no full stride (two left touch-downs with a swing between) in the trials".into()));
     }
     let median = |v: &mut Vec<f64>| crate::stats::median(v);
     let mean_profile = |ps: &[Vec<f64>]| -> Vec<f64> {
@@ -340,7 +343,7 @@ pub fn walk_params(human: &HumanWalk, robot: &Robot, o: &RetargetOptions) -> Res
         [("step scale", o.step_scale, 2.0), ("lift scale", o.lift_scale, 2.0), ("arm scale", o.arm_scale, 2.0)]
     {
         if !(v.is_finite() && (0.0..=hi).contains(&v)) {
-            return Err(Error::Data(format!("{name} {v}: expected 0–{hi}")));
+            return Err(Error::Bound(format!("{name} {v}: expected 0–{hi}")));
         }
     }
     let scale = robot_leg_length_m(robot)? / human.leg_length_m;

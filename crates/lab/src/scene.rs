@@ -42,11 +42,7 @@ pub fn model_scene(
     robot: Option<RobotView<'_>>,
 ) -> Result<Scene> {
     let mut y = free_run(m, controls, n_steps, None)?;
-    let d = m.outputs.len();
-    for (k, v) in y.iter_mut().enumerate() {
-        let o = &m.outputs[k % d];
-        *v = *v * o.std + o.mean;
-    }
+    cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
     run_scene(title, m, controls, 0, &y, robot)
 }
 
@@ -62,7 +58,7 @@ pub fn run_scene(
     robot: Option<RobotView<'_>>,
 ) -> Result<Scene> {
     let Some(asf) = &m.skeleton_asf else {
-        return Err(Error::Data(
+        return Err(Error::Unusable(
             "the model stores no skeleton (it was not trained from an ASF/AMC recording), so there is no figure to draw"
                 .into(),
         ));
@@ -73,13 +69,14 @@ pub fn run_scene(
         .outputs
         .iter()
         .map(|o| {
-            Channel::parse(&o.name).ok_or_else(|| Error::Data(format!("output '{}' is not a mocap channel", o.name)))
+            Channel::parse(&o.name)
+                .ok_or_else(|| Error::name(&o.name, format!("output '{}' is not a mocap channel", o.name)))
         })
         .collect::<Result<_>>()?;
     let rate = m.provenance.sample_rate_hz;
     let d = m.outputs.len();
     if d == 0 || y_units.is_empty() || !y_units.len().is_multiple_of(d) {
-        return Err(Error::Data(format!("{} values do not form frames of {d} channels", y_units.len())));
+        return Err(Error::Shape(format!("{} values do not form frames of {d} channels", y_units.len())));
     }
     let n_steps = y_units.len() / d;
     let mut figures = Vec::new();
@@ -90,9 +87,7 @@ pub fn run_scene(
             controls.fill(k, rate, &mut u);
             let Some(teacher) = m.teacher_for(&u) else { break };
             let p = teacher.cycle.len() / d;
-            t.extend(
-                teacher.cycle[(k % p) * d..(k % p + 1) * d].iter().zip(&m.outputs).map(|(z, o)| z * o.std + o.mean),
-            );
+            t.extend(teacher.cycle[(k % p) * d..(k % p + 1) * d].iter().zip(&m.outputs).map(|(z, o)| o.to_units(*z)));
         }
         let labels: Vec<&str> = m.teachers.iter().map(|t| t.label.as_str()).collect();
         figures.push(
@@ -147,10 +142,10 @@ fn human(sk: &Skeleton, channels: &[Channel], values: Vec<f64>, rate: f64, label
     Figure::human(label, sk, &motion).map_err(view_error)
 }
 
-fn view_error(e: cpg_view::Error) -> Error {
+pub(crate) fn view_error(e: cpg_view::Error) -> Error {
     match e {
         cpg_view::Error::Mocap(e) => Error::Mocap(e),
         cpg_view::Error::Robot(e) => Error::Hoap2(e),
-        other => Error::Data(other.to_string()),
+        other => Error::Shape(other.to_string()),
     }
 }

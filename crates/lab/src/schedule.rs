@@ -60,7 +60,7 @@ impl ControlSchedule {
 
     /// Checks the values: finite, the right width, knots in time order.
     pub fn check(&self, width: usize) -> Result<()> {
-        let bad = |m: String| Err(Error::Data(m));
+        let bad = |m: String| Err(Error::Control(m));
         match self {
             ControlSchedule::Constant(v) if v.len() != width => {
                 bad(format!("{} control values for {width} control inputs", v.len()))
@@ -139,10 +139,10 @@ impl ControlSchedule {
         let vals: Option<Vec<f64>> =
             text.split(',').map(|s| s.trim().parse::<f64>().ok().filter(|x| x.is_finite())).collect();
         let vals = vals.ok_or_else(|| {
-            Error::Data(format!("control values '{text}': expected {} comma-separated finite numbers", names.len()))
+            Error::Control(format!("control values '{text}': expected {} comma-separated finite numbers", names.len()))
         })?;
         if vals.len() != names.len() {
-            return Err(Error::Data(format!(
+            return Err(Error::Control(format!(
                 "{} control values; the model's control inputs are [{}]",
                 vals.len(),
                 names.join(", ")
@@ -161,7 +161,7 @@ impl ControlSchedule {
         if !tokens.iter().any(|t| t.contains('=')) {
             let vals: Option<Vec<f64>> = tokens.iter().map(|t| finite(t)).collect();
             let vals = vals.filter(|v| v.len() == names.len()).ok_or_else(|| {
-                Error::Data(format!(
+                Error::Control(format!(
                     "'{}': expected {} finite numbers ([{}]) or name=value pairs",
                     short(text),
                     names.len(),
@@ -173,14 +173,17 @@ impl ControlSchedule {
         }
         let mut next = current.to_vec();
         for t in tokens {
-            let (name, value) = t
-                .split_once('=')
-                .ok_or_else(|| Error::Data(format!("'{}': mixes bare numbers with name=value pairs", short(text))))?;
+            let (name, value) = t.split_once('=').ok_or_else(|| {
+                Error::Control(format!("'{}': mixes bare numbers with name=value pairs", short(text)))
+            })?;
             let k = names.iter().position(|n| n == name).ok_or_else(|| {
-                Error::Data(format!("'{}' is not a control input; the model's are [{}]", short(name), names.join(", ")))
+                Error::name(
+                    name,
+                    format!("'{}' is not a control input; the model's are [{}]", short(name), names.join(", ")),
+                )
             })?;
             next[k] = finite(value)
-                .ok_or_else(|| Error::Data(format!("{name}={}: expected a finite number", short(value))))?;
+                .ok_or_else(|| Error::Control(format!("{name}={}: expected a finite number", short(value))))?;
         }
         current.copy_from_slice(&next);
         Ok(())
@@ -191,34 +194,37 @@ impl ControlSchedule {
     pub fn parse_csv(text: &str, file: &Path, names: &[String]) -> Result<ControlSchedule> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let (_, head) = lines.next().ok_or_else(|| Error::Data(format!("{}: empty file", file.display())))?;
+        let (_, head) = lines.next().ok_or_else(|| Error::data_file(file, None, "empty file"))?;
         let header: Vec<&str> = head.split(',').map(str::trim).collect();
         if header != names {
-            return Err(Error::Data(format!(
-                "{}:1: header [{}]; the model's control inputs are [{}]",
-                file.display(),
-                short(&header.join(", ")),
-                names.join(", ")
-            )));
+            return Err(Error::data_file(
+                file,
+                Some(1),
+                format!(
+                    "header [{}]; the model's control inputs are [{}]",
+                    short(&header.join(", ")),
+                    names.join(", ")
+                ),
+            ));
         }
         let u = names.len();
         let mut rows = Vec::new();
         for (i, l) in lines {
             if rows.len() / u.max(1) >= MAX_TABLE_ROWS {
-                return Err(Error::Data(format!("{}: more than {MAX_TABLE_ROWS} rows", file.display())));
+                return Err(Error::data_file(file, None, format!("more than {MAX_TABLE_ROWS} rows")));
             }
             let row: Option<Vec<f64>> =
                 l.split(',').map(|s| s.trim().parse::<f64>().ok().filter(|x| x.is_finite())).collect();
             let row = row.ok_or_else(|| {
-                Error::Data(format!("{}:{}: expected {u} finite numbers, found '{}'", file.display(), i + 1, short(l)))
+                Error::data_file(file, Some(i + 1), format!("expected {u} finite numbers, found '{}'", short(l)))
             })?;
             if row.len() != u {
-                return Err(Error::Data(format!("{}:{}: {} values, expected {u}", file.display(), i + 1, row.len())));
+                return Err(Error::data_file(file, Some(i + 1), format!("{} values, expected {u}", row.len())));
             }
             rows.extend(row);
         }
         if rows.is_empty() {
-            return Err(Error::Data(format!("{}: no rows after the header", file.display())));
+            return Err(Error::data_file(file, None, "no rows after the header"));
         }
         Ok(ControlSchedule::Table { width: u, rows })
     }
@@ -262,10 +268,24 @@ mod tests {
     fn csv_errors_name_the_line() {
         let names = vec!["u_walk".to_string(), "u_run".to_string()];
         let e = ControlSchedule::parse_csv("u_walk,u_run\n1,0\n1,x\n", Path::new("u.csv"), &names).unwrap_err();
-        assert!(e.to_string().contains("u.csv:3"), "{e}");
+        assert_eq!(e.to_string(), "u.csv:3: expected 2 finite numbers, found '1,x'");
+        assert!(matches!(&e, Error::DataFile { line: Some(3), file, .. } if file == Path::new("u.csv")), "{e:?}");
         let t = ControlSchedule::parse_csv("u_walk,u_run\n1,0\n0,1\n", Path::new("u.csv"), &names).unwrap();
         let mut o = [0.0; 2];
         t.fill(5, 120.0, &mut o);
         assert_eq!(o, [0.0, 1.0]);
+    }
+
+    #[test]
+    fn a_caller_can_tell_the_errors_apart() {
+        let names = vec!["u_walk".to_string(), "u_run".to_string()];
+        let mut cur = [0.0; 2];
+        let e = ControlSchedule::parse_update("u_jog=1", &names, &mut cur).unwrap_err();
+        assert!(matches!(&e, Error::Name { name, .. } if name == "u_jog"), "{e:?}");
+        assert_eq!(e.to_string(), "'u_jog' is not a control input; the model's are [u_walk, u_run]");
+        let e = ControlSchedule::parse_values("1", &names).unwrap_err();
+        assert!(matches!(e, Error::Control(_)), "{e:?}");
+        let e = ControlSchedule::parse_csv("", Path::new("u.csv"), &names).unwrap_err();
+        assert!(matches!(e, Error::DataFile { line: None, .. }), "{e:?}");
     }
 }

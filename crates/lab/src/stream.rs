@@ -50,7 +50,7 @@ impl Ticker {
     /// (1 Hz to 10 kHz); with `robot`, ticks are joint angles.
     pub fn new(m: &TrainedCpg, rate_hz: f64, robot: Option<RobotTarget<'_>>) -> Result<Ticker> {
         if !(rate_hz.is_finite() && (cpg_hoap2::MIN_RATE_HZ..=cpg_hoap2::MAX_RATE_HZ).contains(&rate_hz)) {
-            return Err(Error::Data(format!(
+            return Err(Error::Bound(format!(
                 "tick rate {rate_hz} Hz: expected {} to {} Hz",
                 cpg_hoap2::MIN_RATE_HZ,
                 cpg_hoap2::MAX_RATE_HZ
@@ -59,7 +59,7 @@ impl Ticker {
         let joints = match robot {
             Some(r) => {
                 if !(r.acceleration_rad_s2.is_finite() && r.acceleration_rad_s2 > 0.0) {
-                    return Err(Error::Data(format!(
+                    return Err(Error::Bound(format!(
                         "acceleration bound {} rad/s²: expected a positive number",
                         r.acceleration_rad_s2
                     )));
@@ -168,32 +168,32 @@ pub fn joint_trajectory(
     let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
     let missing: Vec<&str> = target.map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
     if !missing.is_empty() {
-        return Err(Error::Data(format!(
-            "the model generates [{}]; the joint map also needs [{}] (train on those channels, or give a map that uses only the model's)",
-            names.join(", "),
-            missing.join(", ")
-        )));
+        return Err(Error::name(
+            missing[0],
+            format!(
+                "the model generates [{}]; the joint map also needs [{}] (train on those channels, or give a map that uses only the model's)",
+                names.join(", "),
+                missing.join(", ")
+            ),
+        ));
     }
     let rate = m.provenance.sample_rate_hz;
     let out_rate = rate_hz.unwrap_or(rate);
     let d = m.outputs.len();
     if !(seconds.is_finite() && seconds > 0.0) {
-        return Err(Error::Data(format!("{seconds} s: expected a positive duration")));
+        return Err(Error::Bound(format!("{seconds} s: expected a positive duration")));
     }
     let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, seconds, target.map.entries.len())?;
     let n = (seconds * rate).round() as usize;
     if n == 0 || n.saturating_mul(d) > cpg_hoap2::MAX_VALUES {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "{seconds} s at {rate} Hz: expected at least one step and at most {} values",
             cpg_hoap2::MAX_VALUES
         )));
     }
     // Two frames more than asked, so that the spline reaches the last output row.
     let mut y = crate::measure::free_run(m, controls, n + 2, None)?;
-    for (k, v) in y.iter_mut().enumerate() {
-        let o = &m.outputs[k % d];
-        *v = *v * o.std + o.mean;
-    }
+    cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
     let t = target.map.apply(target.robot, &names, &y, rate)?;
     let t = t.resample(target.robot, out_rate, n_out)?;
     Ok(t.limit(target.robot, target.acceleration_rad_s2)?)

@@ -10,10 +10,6 @@ use crate::prepare::{Prepared, prepare};
 
 /// The memory a training run may use, MiB (estimated before anything is allocated).
 pub const MEMORY_BUDGET_MIB: u64 = 4096;
-/// Most penalties in a grid.
-pub const MAX_PENALTIES: usize = 1000;
-/// Most noise draws per candidate.
-pub const MAX_NOISE_DRAWS: usize = 100;
 
 fn coupling(c: &CouplingSection) -> Coupling {
     Coupling { fraction: c.fraction, scale: c.scale, center: c.center }
@@ -67,18 +63,9 @@ pub fn reservoir_config(c: &Config, n_outputs: usize) -> Result<ReservoirConfig>
 
 /// The training settings of a configuration.
 pub fn train_settings(c: &Config) -> Result<TrainSettings> {
+    // The grid's size and the draws are bounded by `Config::check`.
     let t = &c.training;
     let p = t.penalty_log10;
-    let n = ((p.start - p.stop).abs() / p.step).floor() + 1.0;
-    if !(n.is_finite() && n <= MAX_PENALTIES as f64) {
-        return Err(c.error(
-            "training.penalty_log10",
-            format!("gives {n} penalties; at most {MAX_PENALTIES} (use a larger step)"),
-        ));
-    }
-    if t.noise_draws > MAX_NOISE_DRAWS {
-        return Err(c.error("training.noise_draws", format!("{}; at most {MAX_NOISE_DRAWS}", t.noise_draws)));
-    }
     Ok(TrainSettings {
         washout: t.washout,
         penalties: PenaltyGrid::log10_range(p.start, p.step, p.stop)?,
@@ -108,9 +95,10 @@ pub fn memory_estimate_mib(rc: &ReservoirConfig, s: &TrainSettings, p: &Prepared
     ((harvest + gram + validation) / (1024.0 * 1024.0)).ceil() as u64
 }
 
-/// Trains a model on prepared data with the reservoir seed `seed`.
-pub fn train_prepared(c: &Config, p: &Prepared, seed: u64) -> Result<TrainedCpg> {
-    train_prepared_on(c, p, seed, None)
+/// Trains a model on prepared data with the reservoir seed `seed`, its
+/// validation on `threads` threads (the bits do not depend on it).
+pub fn train_prepared(c: &Config, p: &Prepared, seed: u64, threads: usize) -> Result<TrainedCpg> {
+    train_prepared_on(c, p, seed, None, threads)
 }
 
 /// The reservoir `c` draws for `seed` on prepared data `p`.
@@ -122,7 +110,13 @@ pub fn reservoir_for(c: &Config, p: &Prepared, seed: u64) -> Result<Reservoir> {
 /// [`train_prepared`] on a reservoir already drawn (by [`reservoir_for`] for
 /// the same configuration and seed: the same model, without drawing the
 /// weights and their spectral radius again); `None` draws it.
-pub fn train_prepared_on(c: &Config, p: &Prepared, seed: u64, drawn: Option<Reservoir>) -> Result<TrainedCpg> {
+pub fn train_prepared_on(
+    c: &Config,
+    p: &Prepared,
+    seed: u64,
+    drawn: Option<Reservoir>,
+    threads: usize,
+) -> Result<TrainedCpg> {
     let rc = reservoir_config(c, p.outputs.len())?.check().map_err(cpg_reservoir::Error::from)?;
     let settings = train_settings(c)?;
     let mib = memory_estimate_mib(&rc, &settings, p);
@@ -144,7 +138,7 @@ pub fn train_prepared_on(c: &Config, p: &Prepared, seed: u64, drawn: Option<Rese
         Some(r) if r.seed() == seed && r.config() == rc.get() => r,
         _ => Reservoir::new(&rc, seed)?,
     };
-    let training = cpg_reservoir::train(&reservoir, &p.data, &settings)?;
+    let training = cpg_reservoir::train_on(&reservoir, &p.data, &settings, threads)?;
     let model = TrainedCpg::new(
         reservoir,
         training,
@@ -162,10 +156,10 @@ pub fn train_prepared_on(c: &Config, p: &Prepared, seed: u64, drawn: Option<Rese
     })
 }
 
-/// Prepares the data of `c` and trains with its own seed.
-pub fn train(c: &Config) -> Result<(TrainedCpg, Prepared)> {
+/// Prepares the data of `c` and trains with its own seed, on `threads` threads.
+pub fn train(c: &Config, threads: usize) -> Result<(TrainedCpg, Prepared)> {
     let p = prepare(c)?;
-    let m = train_prepared(c, &p, c.reservoir.seed)?;
+    let m = train_prepared(c, &p, c.reservoir.seed, threads)?;
     Ok((m, p))
 }
 

@@ -12,7 +12,7 @@ use serde::Serialize;
 use crate::config::{Config, OrbitSection, PushSection};
 use crate::error::{Error, Result};
 use crate::experiment::Progress;
-use crate::experiment::stability::push_for;
+use crate::measure::push_for;
 use crate::measure::{AMPLITUDE_TOLERANCE, PERIOD_TOLERANCE, Push, RunSpec, free_runs_each, recovery, stability};
 use crate::prepare::{Prepared, prepare};
 use crate::schedule::ControlSchedule;
@@ -35,11 +35,13 @@ pub struct TuneSettings {
     pub noise_variance: f64,
     /// Seed of the search.
     pub search_seed: u64,
+    /// Threads the search runs on (its own pool; the results do not depend on it).
+    pub threads: usize,
 }
 
 impl Default for TuneSettings {
     fn default() -> Self {
-        TuneSettings { budget: 24, seeds: 3, long_run_s: 300.0, noise_variance: 1e-7, search_seed: 1 }
+        TuneSettings { budget: 24, seeds: 3, long_run_s: 300.0, noise_variance: 1e-7, search_seed: 1, threads: 1 }
     }
 }
 
@@ -233,7 +235,7 @@ fn judge(models: &[Option<TrainedCpg>], seed: u64, rate: f64, s: &TuneSettings) 
     let mut plans = Vec::new();
     for m in models.iter().flatten() {
         if m.teachers.is_empty() {
-            return Err(Error::Data("cpg tune needs a looped (periodic) segment to judge the rhythm".into()));
+            return Err(Error::Unusable("cpg tune needs a looped (periodic) segment to judge the rhythm".into()));
         }
         let d = m.outputs.len();
         for (k, t) in m.teachers.iter().enumerate() {
@@ -250,7 +252,7 @@ fn judge(models: &[Option<TrainedCpg>], seed: u64, rate: f64, s: &TuneSettings) 
         specs.push(RunSpec { model: p.m, controls: &p.ctl, steps: p.short, push: Some(&p.push), noise: None });
         specs.push(RunSpec { model: p.m, controls: &p.ctl, steps: p.short, push: None, noise: None });
     }
-    let mut runs = free_runs_each(&specs)?.into_iter();
+    let mut runs = free_runs_each(&specs, s.threads)?.into_iter();
     let mut plans = plans.iter().peekable();
     let mut out = Vec::with_capacity(models.len());
     for m in models {
@@ -326,7 +328,7 @@ fn evaluate(
             .par_iter()
             .zip(&prepared)
             .map(|((_, _, c), p)| {
-                let m = match train_prepared(c, p, c.reservoir.seed + k) {
+                let m = match train_prepared(c, p, c.reservoir.seed + k, s.threads) {
                     Ok(m) => Ok(Some(m)),
                     // A candidate whose every penalty diverges is a bad candidate, not an error.
                     Err(Error::Reservoir(cpg_reservoir::Error::AllDiverged { .. })) => Ok(None),
@@ -358,14 +360,18 @@ fn evaluate(
 /// Searches `budget` random candidates around `base` (which is evaluated too).
 /// Candidates run in parallel; the result does not depend on the thread count.
 pub fn tune(base: &Config, s: &TuneSettings, progress: &dyn Progress) -> Result<TuneResult> {
+    crate::in_pool(s.threads, || tune_here(base, s, progress))
+}
+
+fn tune_here(base: &Config, s: &TuneSettings, progress: &dyn Progress) -> Result<TuneResult> {
     if s.budget > MAX_BUDGET || s.seeds == 0 || s.seeds > 100 {
-        return Err(Error::Data(format!(
+        return Err(Error::Bound(format!(
             "a search of {} candidates × {} seeds: at most {MAX_BUDGET} × 100",
             s.budget, s.seeds
         )));
     }
     if !(s.long_run_s.is_finite() && (10.0..=3600.0).contains(&s.long_run_s)) {
-        return Err(Error::Data(format!("judged runs of {} s: expected 10 to 3600 s", s.long_run_s)));
+        return Err(Error::Bound(format!("judged runs of {} s: expected 10 to 3600 s", s.long_run_s)));
     }
     prepare(base)?; // the data must be usable before anything runs
     let mut g = Draws(ChaCha8Rng::seed_from_u64(s.search_seed));

@@ -7,7 +7,6 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -15,6 +14,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use cpg_hoap2::{ChannelMap, Robot as UrdfRobot};
+use cpg_lab::format::Format;
+use cpg_lab::run::Controls;
 use cpg_lab::{Config, ControlSchedule};
 use cpg_mocap::{BvhOptions, Skeleton};
 use cpg_reservoir::TrainedCpg;
@@ -98,6 +99,11 @@ fn vector(py: Python<'_>, v: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResul
         return Err(err(format!("{name}: {} value(s) for {n}", flat.len())));
     }
     Ok(flat)
+}
+
+/// The threads long work runs on: the machine's cores.
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 /// The largest magnitude of a value given as data, as in motion files.
@@ -250,22 +256,9 @@ fn to_toml_inner(v: &Bound<'_, PyAny>, key: &str, path: &mut Vec<usize>) -> PyRe
     Err(err(format!("`{key}`: a {} cannot be a configuration value", v.get_type().name()?)))
 }
 
-/// Merges `over` into `base`, table by table.
-fn merge(base: &mut toml::Table, over: toml::Table) {
-    for (k, v) in over {
-        match (base.get_mut(&k), v) {
-            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
-            (_, v) => {
-                base.insert(k, v);
-            }
-        }
-    }
-}
-
 fn config_from_table(t: &toml::Table, name: &str) -> PyResult<Config> {
-    let text = toml::to_string(t).map_err(err)?;
     let here = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    Config::from_toml(&text, Path::new(name), &here).map_err(err)
+    cpg_lab::fit::config_from_table(t, name, &here).map_err(err)
 }
 
 /// A motion and (when read from a file) its skeleton.
@@ -378,13 +371,8 @@ impl Motion {
     /// never half of one; a missing directory is an error.
     fn save(&self, path: PathBuf) -> PyResult<()> {
         let sk = self.skeleton.as_ref().ok_or_else(|| err("this motion has no skeleton to write it with"))?;
-        let text = if cpg_mocap::is_bvh(&path) {
-            cpg_mocap::write_bvh(sk, &self.motion)
-        } else {
-            cpg_mocap::write_amc(sk, &self.motion)
-        }
-        .map_err(err)?;
-        cpg_io::write_file(&path, text.as_bytes()).map_err(err)
+        let format = if cpg_mocap::is_bvh(&path) { Format::Bvh } else { Format::Amc };
+        cpg_lab::format::write_motion(&path, format, sk, &self.motion).map_err(err)
     }
 
     fn __repr__(&self) -> String {
@@ -439,17 +427,13 @@ impl Model {
 /// default (`threads=None`); defined, and checked by the bench, in cpg-lab.
 pub use cpg_lab::measure::SPLIT_MIN_NEURONS;
 
-/// Steps between checks for Ctrl-C in a long free run.
-const CHECK_EVERY_STEPS: usize = 4096;
-
 /// Control values for `steps` steps: None (the first teacher's setting, or
 /// none for a model without controls), a sequence of one value per input
 /// (constant), or an array steps × inputs (the last row is held).
 fn schedule(m: &TrainedCpg, controls: Option<&Bound<'_, PyAny>>) -> PyResult<ControlSchedule> {
     let u = m.controls.len();
     let s = match controls {
-        None if u == 0 => ControlSchedule::none(),
-        None => ControlSchedule::Constant(m.teachers.first().map_or_else(|| vec![0.0; u], |t| t.controls.clone())),
+        None => return cpg_lab::run::schedule(m, Controls::Unset { strict: false }).map_err(err),
         Some(c) => {
             if let Ok(a) = c.extract::<PyReadonlyArray2<'_, f64>>() {
                 let (values, n, w) = rows(&a);
@@ -468,8 +452,7 @@ fn schedule(m: &TrainedCpg, controls: Option<&Bound<'_, PyAny>>) -> PyResult<Con
             }
         }
     };
-    s.check(u).map_err(err)?;
-    Ok(s)
+    cpg_lab::run::schedule(m, Controls::Schedule(&s)).map_err(err)
 }
 
 fn load_robot(urdf: Option<PathBuf>, map: Option<&str>) -> PyResult<(UrdfRobot, ChannelMap)> {
@@ -484,14 +467,7 @@ fn load_robot(urdf: Option<PathBuf>, map: Option<&str>) -> PyResult<(UrdfRobot, 
 
 /// Steps of `seconds` at `rate`, bounded.
 fn steps_for(seconds: f64, rate: f64, d: usize) -> PyResult<usize> {
-    if !(seconds.is_finite() && seconds > 0.0 && seconds <= 86_400.0) {
-        return Err(err(format!("seconds = {seconds}: expected a duration above 0 and at most 86400 (one day)")));
-    }
-    let n = (seconds * rate).round() as usize;
-    if n == 0 || n.saturating_mul(d.max(1)) > 1 << 27 {
-        return Err(err(format!("{seconds} s at {rate} Hz: expected at least one step and at most 2^27 values")));
-    }
-    Ok(n)
+    cpg_lab::run::steps("seconds", seconds, rate, d).map_err(err)
 }
 
 #[pymethods]
@@ -557,12 +533,7 @@ impl Model {
                 dict.set_item("label", &t.label)?;
                 dict.set_item("controls", t.controls.clone())?;
                 dict.set_item("period_steps", t.period_steps(d))?;
-                let units: Vec<f64> = t
-                    .cycle
-                    .iter()
-                    .enumerate()
-                    .map(|(k, z)| z * self.m.outputs[k % d].std + self.m.outputs[k % d].mean)
-                    .collect();
+                let units = cpg_reservoir::to_units(&self.m.outputs, &t.cycle);
                 dict.set_item("cycle", array2(py, units, t.cycle.len() / d, d)?)?;
                 Ok(dict)
             })
@@ -583,45 +554,19 @@ impl Model {
         threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let d = self.m.outputs.len();
-        let steps = int_arg(steps, "steps", 1, ((1u64 << 27) / d.max(1) as u64).max(1))? as usize;
+        let steps = int_arg(steps, "steps", 1, cpg_lab::run::max_steps(d) as u64)? as usize;
         let threads = match threads {
             Some(t) => int_arg(t, "threads", 1, 64)? as usize,
-            None if self.m.reservoir.n_neurons() >= SPLIT_MIN_NEURONS => 2,
-            None => 1,
+            None => cpg_lab::run::default_threads(&self.m),
         };
         let s = schedule(&self.m, controls)?;
         let m = self.m.clone();
-        let y = interruptible(py, move |cancel| -> Result<Option<Vec<f64>>, String> {
-            if threads > 1 {
-                let spec = cpg_lab::measure::RunSpec { model: &m, controls: &s, steps, push: None, noise: None };
-                let mut y = cpg_lab::measure::free_runs_on(&[spec], threads)
-                    .map_err(|e| e.to_string())?
-                    .pop()
-                    .unwrap_or_else(|| Ok(Vec::new()))
-                    .map_err(|e| e.to_string())?;
-                for (k, v) in y.iter_mut().enumerate() {
-                    let o = &m.outputs[k % d];
-                    *v = *v * o.std + o.mean;
-                }
-                return Ok(Some(y));
-            }
-            // One core: step by step (the same bits as a batched run), checking for Ctrl-C.
-            let mut g = cpg_reservoir::Generator::new(&m);
-            let mut u = vec![0.0; m.controls.len()];
-            let rate = m.provenance.sample_rate_hz;
-            let mut y = Vec::with_capacity(steps * d);
-            for k in 0..steps {
-                if k % CHECK_EVERY_STEPS == 0 && cancel.load(Ordering::Relaxed) {
-                    return Ok(None);
-                }
-                s.fill(k, rate, &mut u);
-                y.extend_from_slice(g.step(&u).map_err(|e| e.to_string())?);
-            }
-            Ok(Some(y))
+        let y = interruptible(py, move |cancel| {
+            cpg_lab::run::generate(&m, &s, steps, cpg_lab::run::RunOptions { threads, cancel: Some(cancel) })
         })?
         .map_err(err)?
         .ok_or_else(|| err("interrupted"))?;
-        array2(py, y, steps, d)
+        array2(py, y.values, steps, d)
     }
 
     /// A step-by-step generator at the model's start state (for control loops).
@@ -667,7 +612,7 @@ impl Model {
             None => None,
         };
         let m = self.m.clone();
-        let j = interruptible(py, move |_| cpg_lab::measure::judge(&m, n, s.as_ref()))?.map_err(err)?;
+        let j = interruptible(py, move |_| cpg_lab::measure::judge(&m, n, s.as_ref(), cores()))?.map_err(err)?;
         to_py(py, &serde_json::to_value(j).map_err(err)?)
     }
 
@@ -951,33 +896,9 @@ fn train(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<Model> {
         let p: PathBuf = config.extract().map_err(|_| err("config: expected a path or a dict"))?;
         Config::load(&p).map_err(err)?
     };
-    let m = interruptible(py, move |_| {
-        let p = cpg_lab::prepare::prepare(&c)?;
-        cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
-    })?
-    .map_err(err)?;
+    let m = interruptible(py, move |_| cpg_lab::in_pool(cores(), || cpg_lab::train::train(&c, cores()).map(|t| t.0)))?
+        .map_err(err)?;
     Ok(Model::of(m))
-}
-
-/// The configuration `fit` starts from: our protocol of experiments/e1.toml
-/// (e5-extension.toml's sequence for several segments), whose validation
-/// push and switches are not the ones `Model.evaluate` tests.
-fn fit_defaults(segments: usize) -> toml::Table {
-    let text = if segments > 1 {
-        "[data]\nloop_cycles = 1\nsamples_per_segment = 1000\nrepeats = 3\nmorph_s = 1\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 5\nramp_s = 2\nsettle_s = 1\n"
-    } else {
-        "[data]\nloop_cycles = 1\nsamples_per_segment = 2200\n\n[reservoir]\nseed = 1\n\n[training]\nwashout = 200\nnoise_variance = 0\nnoise_draws = 1\npenalty_log10 = { start = 1, step = 0.1, stop = -8 }\nteacher_noise = 0.1\nscore = \"orbit\"\nprefer_larger_within = 1\n\n[training.orbit]\nstay_s = 10\nsettle_s = 6.5\npush = { at_s = 1.3, hold_s = 0.1, above_max = 1 }\n"
-    };
-    text.parse().unwrap_or_default()
-}
-
-/// Whether `name` can be a control input's name (the configuration's rule and the model file's).
-fn check_control_name(name: &str) -> Result<(), String> {
-    cpg_reservoir::check_name(name)?;
-    if name.chars().any(|c| c == '=' || c.is_whitespace()) {
-        return Err(format!("control name {name:?}: expected a word without '=' or spaces"));
-    }
-    Ok(())
 }
 
 /// Trains a model on arrays: `y` is one segment (time × channels, anything
@@ -1019,40 +940,6 @@ fn fit(
         (None, None) => return Err(err("give y (time × channels) or segments=[...] (several)")),
     };
     let which = |k: usize| if segments.is_some() { format!("segments[{k}]") } else { "y".to_owned() };
-    let d = segs[0].2;
-    let names = channels.unwrap_or_else(|| (0..d).map(|k| format!("y{k}")).collect());
-    if names.len() != d {
-        return Err(err(format!("channels: {} names for {d} columns", names.len())));
-    }
-    for (k, n) in names.iter().enumerate() {
-        cpg_reservoir::check_name(n).map_err(|e| err(format!("channels[{k}]: {e}")))?;
-        if names[..k].contains(n) {
-            return Err(err(format!("channels[{k}]: {n:?} is named twice")));
-        }
-    }
-    let mut total = 0usize;
-    for (k, (v, n, w)) in segs.iter().enumerate() {
-        if *w != d {
-            return Err(err(format!("{} has {w} channels; {} has {d}", which(k), which(0))));
-        }
-        if *n < 4 {
-            return Err(err(format!("{} has {n} frames; a rhythm needs many more", which(k))));
-        }
-        if let Some(i) = v.iter().position(|x| !(x.is_finite() && x.abs() <= MAX_VALUE)) {
-            return Err(err(format!(
-                "{}: the value at frame {}, channel {} ({}) is {}; expected finite values within ±{MAX_VALUE}",
-                which(k),
-                i / w,
-                i % w,
-                names[i % w],
-                v[i]
-            )));
-        }
-        total += n;
-    }
-    if total > cpg_lab::prepare::MAX_TRAINING_SAMPLES {
-        return Err(err(format!("{total} frames in all; at most {}", cpg_lab::prepare::MAX_TRAINING_SAMPLES)));
-    }
     let ctl: Vec<Vec<f64>> = match controls {
         None => vec![Vec::new(); segs.len()],
         Some(c) => {
@@ -1064,81 +951,30 @@ fn fit(
             v
         }
     };
-    let u = ctl[0].len();
-    let cnames = control_names.unwrap_or_else(|| (0..u).map(|k| format!("u{k}")).collect());
-    if ctl.iter().any(|c| c.len() != u) || cnames.len() != u {
-        return Err(err("controls: every segment needs one value per control input (and one name each)"));
-    }
-    for (k, n) in cnames.iter().enumerate() {
-        check_control_name(n).map_err(|e| err(format!("control_names[{k}]: {e}")))?;
-    }
-    // Inside, the columns are channels c0.rx, c1.rx, … (the motion format's `bone.dof`); the model carries the user's names.
-    let inner: Vec<cpg_mocap::Channel> =
-        (0..d).map(|k| cpg_mocap::Channel { bone: format!("c{k}"), dof: cpg_mocap::Dof::Rx }).collect();
-    let mut table = fit_defaults(segs.len());
-    let seg_tables: Vec<toml::Value> = ctl
-        .iter()
-        .enumerate()
-        .map(|(k, c)| {
-            let mut t = toml::Table::new();
-            t.insert("motion".into(), toml::Value::String(format!("y[{k}]")));
-            t.insert("label".into(), toml::Value::String(which(k)));
-            t.insert("controls".into(), toml::Value::Array(c.iter().map(|v| toml::Value::Float(*v)).collect()));
-            toml::Value::Table(t)
-        })
-        .collect();
-    let data: toml::Table = [
-        ("rate_hz".to_owned(), toml::Value::Float(rate_hz)),
-        ("channels".to_owned(), toml::Value::Array(inner.iter().map(|c| toml::Value::String(c.to_string())).collect())),
-        ("controls".to_owned(), toml::Value::Array(cnames.iter().map(|c| toml::Value::String(c.clone())).collect())),
-        ("segments".to_owned(), toml::Value::Array(seg_tables)),
-    ]
-    .into_iter()
-    .collect();
-    merge(&mut table, [("data".to_owned(), toml::Value::Table(data))].into_iter().collect());
-    merge(
-        &mut table,
-        [(
-            "output".to_owned(),
-            toml::Value::Table([("model".to_owned(), toml::Value::String("fit.cpg".into()))].into_iter().collect()),
-        )]
-        .into_iter()
-        .collect(),
-    );
-    if let Some(cfg) = config
-        && let Some(toml::Value::Table(over)) = to_toml(cfg.as_any(), "")?
-    {
-        for key in over.keys() {
-            if !["data", "reservoir", "training"].contains(&key.as_str()) {
-                return Err(err(format!("config: `{key}`; fit takes the sections data, reservoir and training")));
-            }
-        }
-        merge(&mut table, over);
-    }
-    let mut c = config_from_table(&table, "<fit>")?;
-    // Set here, not in the TOML: a seed may be any 64-bit whole number.
-    c.reservoir.seed = seed;
-    let parts: Vec<cpg_mocap::Motion> = segs
-        .into_iter()
-        .map(|(v, _, _)| cpg_mocap::Motion::new(inner.clone(), v, rate_hz))
-        .collect::<Result<_, _>>()
-        .map_err(err)?;
-    let user = names.clone();
-    let mut m = interruptible(py, move |_| {
-        let p = cpg_lab::prepare::prepare_recorded(&c, cpg_lab::prepare::Recorded { skeleton: None, parts })?;
-        cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed)
-    })?
-    .map_err(|e| {
-        // The library names the inner columns; the user knows their own names.
-        let mut msg = e.to_string();
-        for (k, n) in user.iter().enumerate().rev() {
-            msg = msg.replace(&format!("c{k}.rx"), n);
-        }
-        err(msg)
-    })?;
-    for (o, n) in m.outputs.iter_mut().zip(&names) {
-        o.name.clone_from(n);
-    }
+    let overrides = match config {
+        Some(cfg) => match to_toml(cfg.as_any(), "")? {
+            Some(toml::Value::Table(t)) => Some(t),
+            _ => None,
+        },
+        None => None,
+    };
+    let request = cpg_lab::fit::FitRequest {
+        labels: (0..segs.len()).map(which).collect(),
+        segments: segs
+            .into_iter()
+            .zip(ctl)
+            .map(|((values, n, d), controls)| cpg_lab::fit::Segment { values, n, d, controls })
+            .collect(),
+        rate_hz,
+        channels,
+        control_names,
+        seed,
+        overrides,
+        threads: cores(),
+    };
+    // Checked at once, before the work.
+    cpg_lab::fit::check(&request).map_err(err)?;
+    let m = interruptible(py, move |_| cpg_lab::fit::fit(request))?.map_err(err)?;
     Ok(Model::of(m))
 }
 

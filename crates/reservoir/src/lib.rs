@@ -46,12 +46,12 @@ pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;
 pub use model::{
     FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,
-    TrainedCpg, check_name,
+    TrainedCpg, check_name, to_units, to_units_in_place,
 };
 pub use orbit::{OrbitStay, orbit_nmse};
 pub use real::Real;
 pub use reservoir::{Reservoir, spectral_radius};
 pub use train::{
     Candidate, Harvest, Score, Scoring, Sequence, TrainSettings, Training, TrainingData, ValidationPoint, harvest,
-    teacher_forced_states, train, validate,
+    teacher_forced_states, train, train_on, validate,
 };

@@ -104,6 +104,34 @@ pub struct OutputChannel {
     pub std: f64,
 }
 
+impl OutputChannel {
+    /// A normalised value `z` in this channel's units: `z · std + mean`
+    /// (the one de-normalisation; a multiply and an add, never fused, so
+    /// every caller gets the same bits).
+    #[inline]
+    pub fn to_units(&self, z: f64) -> f64 {
+        z * self.std + self.mean
+    }
+}
+
+/// Frame-major normalised values (`frames × outputs.len()`) in the
+/// channels' units, in place.
+pub fn to_units_in_place(outputs: &[OutputChannel], y: &mut [f64]) {
+    let d = outputs.len().max(1);
+    for (k, v) in y.iter_mut().enumerate() {
+        if let Some(o) = outputs.get(k % d) {
+            *v = o.to_units(*v);
+        }
+    }
+}
+
+/// [`to_units_in_place`] on a copy.
+pub fn to_units(outputs: &[OutputChannel], y: &[f64]) -> Vec<f64> {
+    let mut out = y.to_vec();
+    to_units_in_place(outputs, &mut out);
+    out
+}
+
 /// Where a model came from and how its penalty was chosen.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {

@@ -232,11 +232,23 @@ fn states_in<R: SimdDot>(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) -> R
 /// Trains the readout of `reservoir` on `data`: harvest, all penalties from
 /// one factorisation, each validated in noisy free run, the best chosen
 /// (ties go to the larger penalty). With the same reservoir, data and settings
-/// the result is identical whatever the number of threads.
+/// the result is identical whatever the number of threads. On one thread;
+/// [`train_on`] spreads the validation over several.
 pub fn train(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
+    train_on(reservoir, data, settings, 1)
+}
+
+/// [`train`] with the validation's candidates split into `threads` groups
+/// that run in parallel (on the caller's rayon pool); the bits do not depend on it.
+pub fn train_on(
+    reservoir: &Reservoir,
+    data: &TrainingData,
+    settings: &TrainSettings,
+    threads: usize,
+) -> Result<Training> {
     match reservoir.config().precision {
-        Precision::F32 => train_in::<f32>(reservoir, data, settings),
-        Precision::F64 => train_in::<f64>(reservoir, data, settings),
+        Precision::F32 => train_in::<f32>(reservoir, data, settings, threads),
+        Precision::F64 => train_in::<f64>(reservoir, data, settings, threads),
     }
 }
 
@@ -303,17 +315,19 @@ fn harvest_in<R: SimdDot>(
 /// teacher-forcing `data.warmup`, with the settings' state noise and the
 /// scoring's holds, driven by `data.validation.controls`, and is scored as
 /// `data.scoring` says, averaged over the noise draws (the same draws for
-/// every candidate). All candidates and draws advance together in batches
-/// spread over the cores. Returns the scores in candidate order and the start state.
+/// every candidate). All candidates and draws advance together in
+/// `threads` batches run in parallel. Returns the scores in candidate order
+/// and the start state.
 pub fn validate(
     reservoir: &Reservoir,
     candidates: &[Candidate],
     data: &TrainingData,
     settings: &TrainSettings,
+    threads: usize,
 ) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
     match reservoir.config().precision {
-        Precision::F32 => validate_in::<f32>(&Engine::new(reservoir), candidates, data, settings),
-        Precision::F64 => validate_in::<f64>(&Engine::new(reservoir), candidates, data, settings),
+        Precision::F32 => validate_in::<f32>(&Engine::new(reservoir), candidates, data, settings, threads),
+        Precision::F64 => validate_in::<f64>(&Engine::new(reservoir), candidates, data, settings, threads),
     }
 }
 
@@ -343,6 +357,7 @@ fn validate_in<R: SimdDot>(
     candidates: &[Candidate],
     data: &TrainingData,
     settings: &TrainSettings,
+    threads: usize,
 ) -> Result<(Vec<ValidationPoint>, Vec<f64>)> {
     let (n, np, d, u) = (engine.shared.n, engine.shared.np, engine.shared.d, engine.shared.u);
     let (warmup, validation) = (&data.warmup, &data.validation);
@@ -384,7 +399,7 @@ fn validate_in<R: SimdDot>(
         .collect();
     let draws = settings.n_noise_draws;
     let n_cols = candidates.len() * draws;
-    let chunk = n_cols.div_ceil(rayon::current_num_threads()).div_ceil(4) * 4;
+    let chunk = n_cols.div_ceil(threads.max(1)).div_ceil(4) * 4;
     let holds = &data.scoring.holds;
     let column_score: Vec<f64> = sweep_chunked(n_cols, chunk, |cols| {
         let columns: Vec<Column<'_, R>> = cols
@@ -487,7 +502,12 @@ fn validate_in<R: SimdDot>(
     Ok((curve, x0[..n].iter().map(|v| v.to_f64()).collect()))
 }
 
-fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &TrainSettings) -> Result<Training> {
+fn train_in<R: SimdDot>(
+    reservoir: &Reservoir,
+    data: &TrainingData,
+    settings: &TrainSettings,
+    threads: usize,
+) -> Result<Training> {
     let engine = Engine::<R>::new(reservoir);
     // Settings first: the harvest and the factorisation are the expensive part.
     settings.check_noise()?;
@@ -500,7 +520,7 @@ fn train_in<R: SimdDot>(reservoir: &Reservoir, data: &TrainingData, settings: &T
         sweep(grid, |_, penalty| path.solve(penalty).map(|readout| Candidate { penalty, readout }))
             .into_iter()
             .collect::<Result<_, _>>()?;
-    let (curve, x0) = validate_in(&engine, &candidates, data, settings)?;
+    let (curve, x0) = validate_in(&engine, &candidates, data, settings, threads)?;
     let best = curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
     if !best.is_finite() {
         return Err(Error::AllDiverged { candidates: curve.len() });

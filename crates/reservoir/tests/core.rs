@@ -168,7 +168,7 @@ fn training_is_identical_with_one_and_two_threads() {
     let res = Reservoir::new(&cfg, 9).unwrap();
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| train(&res, &sine_data(), &quick_settings()).unwrap())
+        pool.install(|| train_on(&res, &sine_data(), &quick_settings(), threads).unwrap())
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one, two);
@@ -357,13 +357,13 @@ fn a_readout_chosen_by_the_orbit_score_keeps_period_and_amplitude() {
     let period = estimate_period(end, 15, 40).unwrap();
     assert!((period / (8.0 * std::f64::consts::PI) - 1.0).abs() < 0.01, "period {period}");
     // A hold changes the validation run, hence the scores.
-    let (c_hold, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(true), &orbit).unwrap();
-    let (c_free, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(false), &orbit).unwrap();
+    let (c_hold, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(true), &orbit, 1).unwrap();
+    let (c_free, _) = validate(&res, &[candidate(&res, 1e-3)], &orbit_data(false), &orbit, 2).unwrap();
     assert_ne!(c_hold[0].nmse, c_free[0].nmse);
     // A hold outside the run is refused.
     let mut bad = orbit_data(true);
     bad.scoring.holds[0].from = 10_000;
-    assert!(validate(&res, &[candidate(&res, 1e-3)], &bad, &orbit).is_err());
+    assert!(validate(&res, &[candidate(&res, 1e-3)], &bad, &orbit, 1).is_err());
 }
 
 fn candidate(res: &Reservoir, penalty: f64) -> Candidate {

@@ -155,7 +155,7 @@ struct Results {
 
 fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     let dir = crate::root().join("experiments");
-    let opts = Options { quick: args.quick };
+    let opts = Options { quick: args.quick, threads: crate::cores() };
     let mut times = Vec::new();
     let mut main = Vec::new();
     if !args.configs.is_empty() || args.experiment != Part::Families {
@@ -342,7 +342,7 @@ fn run_info(times: &[(String, f64)], total_s: f64, quotes_checked: Option<usize>
         cpu: cpu_model(),
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         simd: simd_level(),
-        threads: rayon::current_num_threads(),
+        threads: crate::cores(),
         seconds: times.to_vec(),
         total_s,
         quotes_checked,

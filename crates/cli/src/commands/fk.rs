@@ -2,7 +2,9 @@
 
 use std::path::Path;
 
-use crate::output::{Destination, write_output};
+use cpg_lab::format::Format;
+
+use crate::output::Destination;
 
 pub fn run(
     motion: &Path,
@@ -11,15 +13,13 @@ pub fn run(
     rate_hz: Option<f64>,
     bvh_unit_mm: Option<f64>,
 ) -> anyhow::Result<()> {
-    let format = super::output_format(None, output, &["csv", "npy"], "csv")?;
+    let format = Format::choose(None, output, &Format::POINTS, Format::Csv)?;
     let dest = crate::output::check_writable(output)?;
     let r =
         cpg_mocap::read_recording(motion, skeleton, rate_hz, &cpg_mocap::BvhOptions { length_unit_mm: bvh_unit_mm })?;
     let p = r.skeleton.forward_kinematics(&r.motion)?;
-    if format == "npy" {
-        write_output(output, |w| {
-            crate::npy::write_npy(w, &[p.n_frames(), p.names.len(), 3], p.points_mm.iter().flatten().copied())
-        })?;
+    cpg_lab::format::write_points(output, format, &p)?;
+    if format == Format::Npy {
         eprintln!(
             "wrote {} frames × {} points × 3 (x, y, z in mm; points: {}) to {}",
             p.n_frames(),
@@ -27,23 +27,8 @@ pub fn run(
             p.names.join(", "),
             Destination::describe(&dest)
         );
-        return Ok(());
+    } else {
+        eprintln!("wrote {} frames × {} points to {}", p.n_frames(), p.names.len(), Destination::describe(&dest));
     }
-    write_output(output, |w| {
-        write!(w, "frame,time_s")?;
-        for n in &p.names {
-            write!(w, ",{n}_x_mm,{n}_y_mm,{n}_z_mm")?;
-        }
-        writeln!(w)?;
-        for f in 0..p.n_frames() {
-            write!(w, "{},{}", f + 1, f as f64 / p.sample_rate_hz)?;
-            for q in p.frame(f) {
-                write!(w, ",{:.4},{:.4},{:.4}", q[0], q[1], q[2])?;
-            }
-            writeln!(w)?;
-        }
-        Ok(())
-    })?;
-    eprintln!("wrote {} frames × {} points to {}", p.n_frames(), p.names.len(), Destination::describe(&dest));
     Ok(())
 }

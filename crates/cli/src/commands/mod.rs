@@ -17,9 +17,10 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use cpg_hoap2::{ChannelMap, Robot};
-use cpg_lab::measure::free_run;
+use cpg_lab::format::Format;
+use cpg_lab::run::Controls;
 use cpg_lab::{Config, ControlSchedule};
-use cpg_mocap::{Channel, Motion, Skeleton, write_amc};
+use cpg_mocap::Skeleton;
 use cpg_reservoir::TrainedCpg;
 
 use crate::output::{check_writable, write_output};
@@ -85,7 +86,9 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
         s.n_noise_draws,
         c.training.score
     );
-    let model = match cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed) {
+    let trained =
+        cpg_lab::in_pool(crate::cores(), || cpg_lab::train::train_prepared(&c, &p, c.reservoir.seed, crate::cores()));
+    let model = match trained {
         Err(cpg_lab::Error::Reservoir(e @ cpg_reservoir::Error::AllDiverged { .. })) => bail!(
             "{}: {e}: the reservoir does not hold a rhythm with these settings (try `cpg tune --config {}`)",
             config.display(),
@@ -129,156 +132,32 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
     Ok(())
 }
 
+/// The control schedule of `--control` / `--control-file` (one of them, or
+/// neither for a model without control inputs).
 fn schedule(m: &TrainedCpg, values: Option<&str>, file: Option<&Path>) -> anyhow::Result<ControlSchedule> {
-    match (values, file) {
+    let source = match (values, file) {
         (Some(_), Some(_)) => bail!("give either --control or --control-file, not both"),
-        (Some(v), None) => Ok(ControlSchedule::parse_values(v, &m.controls)?),
-        (None, Some(f)) => {
-            let bytes = cpg_mocap::read_bounded(f, cpg_mocap::MAX_INPUT_BYTES)?;
-            let text = String::from_utf8(bytes).map_err(|e| {
-                anyhow::anyhow!(
-                    "{}: not UTF-8 text (invalid byte at offset {})",
-                    f.display(),
-                    e.utf8_error().valid_up_to()
-                )
-            })?;
-            Ok(ControlSchedule::parse_csv(&text, f, &m.controls)?)
-        }
-        (None, None) if m.controls.is_empty() => Ok(ControlSchedule::none()),
-        (None, None) => {
-            bail!("the model has control inputs [{}]: give --control or --control-file", m.controls.join(", "))
-        }
-    }
-}
-
-/// A number as a message shows it: plain when of ordinary size, else in `e` notation.
-fn short_number(v: f64) -> String {
-    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) { format!("{v:e}") } else { format!("{v}") }
-}
-
-/// Longest run one command makes, seconds (a day).
-const MAX_SECONDS: f64 = 86_400.0;
-/// Most values one run holds in memory (1 GiB of f64).
-const MAX_VALUES: usize = 1 << 27;
-
-/// Checks `--seconds`: above 0 and at most [`MAX_SECONDS`].
-fn check_seconds(seconds: f64) -> anyhow::Result<()> {
-    if !(seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS) {
-        bail!("--seconds {}: expected a duration above 0 and at most {MAX_SECONDS} (one day)", short_number(seconds));
-    }
-    Ok(())
-}
-
-/// The steps of a run of `seconds` at `rate` Hz with `d` channels, bounded.
-fn steps(seconds: f64, rate: f64, d: usize) -> anyhow::Result<usize> {
-    check_seconds(seconds)?;
-    let n = (seconds * rate).round() as usize;
-    if n == 0 {
-        bail!("--seconds {seconds} at {rate} Hz is less than one step");
-    }
-    if n.saturating_mul(d.max(1)) > MAX_VALUES {
-        bail!(
-            "--seconds {seconds}: {n} steps × {d} channels would hold {:.1} GiB; at most {MAX_VALUES} values (1 GiB) per run",
-            (n as f64 * d as f64 * 8.0) / (1u64 << 30) as f64
-        );
-    }
-    Ok(n)
-}
-
-/// The model's outputs in their own units, frame-major.
-fn run_units(m: &TrainedCpg, controls: &ControlSchedule, n: usize) -> anyhow::Result<Vec<f64>> {
-    let d = m.outputs.len();
-    let mut y = free_run(m, controls, n, None)?;
-    for (k, v) in y.iter_mut().enumerate() {
-        let o = &m.outputs[k % d];
-        *v = *v * o.std + o.mean;
-    }
-    warn_out_of_range(m, &y);
-    Ok(y)
-}
-
-/// How far beyond the teachers' range (as a share of its span) an output may
-/// go before `generate` and `hoap2` warn.
-const RANGE_MARGIN: f64 = 0.5;
-
-/// Warns, once per channel, when the output `y` (in the model's units,
-/// frame-major) leaves the range of the teacher cycles by more than
-/// [`RANGE_MARGIN`] of that range: a sign of an unstable model.
-fn warn_out_of_range(m: &TrainedCpg, y: &[f64]) {
-    let d = m.outputs.len();
-    for (k, o) in m.outputs.iter().enumerate() {
-        let taught = m.teachers.iter().flat_map(|t| t.cycle.iter().skip(k).step_by(d)).map(|z| z * o.std + o.mean);
-        let (lo, hi) = taught.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-        let (min, max) =
-            y.iter().skip(k).step_by(d).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        let margin = RANGE_MARGIN * (hi - lo);
-        if min < lo - margin || max > hi + margin {
-            eprintln!(
-                "warning: {} spans {min:.1} to {max:.1}{u}, beyond the training data's {lo:.1} to {hi:.1}{u} by more than {:.0} % of that range: the model may be unstable (`cpg evaluate` measures it)",
-                o.name,
-                RANGE_MARGIN * 100.0,
-                u = unit_suffix(&o.name).replace('_', " "),
-            );
-        }
-    }
-}
-
-fn unit_suffix(name: &str) -> &'static str {
-    if name.ends_with(".rx") || name.ends_with(".ry") || name.ends_with(".rz") { "_deg" } else { "" }
-}
-
-/// Extensions that name an output format, and the format each names.
-const FORMAT_EXTENSIONS: [(&str, &str); 10] = [
-    ("csv", "csv"),
-    ("npy", "npy"),
-    ("amc", "amc"),
-    ("bvh", "bvh"),
-    ("json", "json"),
-    ("yaml", "yaml"),
-    ("yml", "yaml"),
-    ("html", "html"),
-    ("htm", "html"),
-    ("gif", "gif"),
-];
-
-/// The format an output is written in: `--format` when given, else the
-/// output's extension when it names one of `known`, else `default`. An
-/// extension that names another format is an error (`-o walk.gif` for CSV
-/// would give a file no GIF reader opens); other extensions are the user's.
-pub(crate) fn output_format(
-    format: Option<&str>,
-    output: &Path,
-    known: &[&str],
-    default: &str,
-) -> anyhow::Result<String> {
-    let named = output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .and_then(|e| FORMAT_EXTENSIONS.iter().find(|(x, _)| *x == e).map(|(x, f)| ((*x).to_owned(), *f)));
-    let f = match format {
-        Some(f) => f.to_ascii_lowercase(),
-        None => named.as_ref().map(|(_, f)| (*f).to_owned()).unwrap_or_else(|| default.to_owned()),
+        (Some(v), None) => Controls::Values(v),
+        (None, Some(f)) => Controls::File(f),
+        (None, None) => Controls::Unset { strict: true },
     };
-    if !known.contains(&f.as_str()) {
-        match (format, &named) {
-            (None, Some((ext, _))) => bail!(
-                "{}: .{ext} names a format this command does not write; it writes {} (give --format or another extension)",
-                output.display(),
-                known.join(", ")
-            ),
-            _ => bail!("--format {f}: expected {}", known.join(", ")),
-        }
+    Ok(cpg_lab::run::schedule(m, source)?)
+}
+
+/// The steps of `--seconds` at `rate` Hz with `d` channels, bounded.
+fn steps(seconds: f64, rate: f64, d: usize) -> anyhow::Result<usize> {
+    Ok(cpg_lab::run::steps("--seconds", seconds, rate, d)?)
+}
+
+/// A free run of `m` in its units, with a warning for each channel that
+/// leaves the range it was taught.
+fn run_units(m: &TrainedCpg, controls: &ControlSchedule, n: usize) -> anyhow::Result<cpg_lab::run::Run> {
+    let opts = cpg_lab::run::RunOptions { threads: cpg_lab::run::default_threads(m), cancel: None };
+    let run = cpg_lab::run::generate(m, controls, n, opts)?.context("the run was cancelled")?;
+    for w in cpg_lab::run::range_warnings(m, &run.values) {
+        eprintln!("warning: {w}");
     }
-    if let Some((ext, g)) = &named
-        && *g != f
-    {
-        bail!(
-            "{}: the extension .{ext} is not the format written ({f}); name the file .{f} or give --format {g}",
-            output.display()
-        );
-    }
-    Ok(f)
+    Ok(run)
 }
 
 /// `cpg generate`.
@@ -291,64 +170,31 @@ pub fn generate(
     skeleton: Option<&Path>,
     output: &Path,
 ) -> anyhow::Result<()> {
-    let format = output_format(format, output, &["csv", "npy", "amc", "bvh"], "csv")?;
+    let format = Format::choose(format, output, &Format::RUN, Format::Csv)?;
     let m = TrainedCpg::load(model)?;
     let rate = m.provenance.sample_rate_hz;
     let d = m.outputs.len();
     let n = steps(seconds, rate, d)?;
     let dest = check_writable(output)?;
     let controls = schedule(&m, control, control_file)?;
-    match format.as_str() {
-        "csv" => {
-            let y = run_units(&m, &controls, n)?;
-            write_output(output, |w| {
-                write!(w, "time_s")?;
-                for o in &m.outputs {
-                    write!(w, ",{}{}", o.name, unit_suffix(&o.name))?;
-                }
-                writeln!(w)?;
-                for k in 0..n {
-                    write!(w, "{:.6}", k as f64 / rate)?;
-                    for v in &y[k * d..(k + 1) * d] {
-                        write!(w, ",{v:.6}")?;
-                    }
-                    writeln!(w)?;
-                }
-                Ok(())
-            })?
-        }
-        "npy" => {
-            let y = run_units(&m, &controls, n)?;
-            write_output(output, |w| crate::npy::write_npy(w, &[n, d], y.iter().copied()))?;
-            let names: Vec<&str> = m.outputs.iter().map(|o| o.name.as_str()).collect();
-            eprintln!("columns: {} (degrees for rotation channels)", names.join(", "));
-        }
-        _ => {
-            let sk = match (skeleton, &m.skeleton_asf) {
-                (Some(p), _) => Skeleton::from_file(p)?,
-                (None, Some(text)) => {
-                    cpg_mocap::parse_asf(&format!("the skeleton stored in {}", model.display()), text.as_bytes())
-                        .map_err(cpg_mocap::Error::from)?
-                }
-                (None, None) => bail!(
-                    "{} stores no skeleton (it was trained from arrays): give --skeleton FILE.asf",
-                    model.display()
-                ),
-            };
-            let channels: Vec<Channel> = m
-                .outputs
-                .iter()
-                .map(|o| {
-                    Channel::parse(&o.name)
-                        .with_context(|| format!("output '{}' is not a mocap channel (bone.dof)", o.name))
-                })
-                .collect::<anyhow::Result<_>>()?;
-            let y = run_units(&m, &controls, n)?;
-            // Every channel, and a root on the floor when the model generates none.
-            let motion = sk.ground(&Motion::new(channels, y, rate)?)?;
-            let text = if format == "bvh" { cpg_mocap::write_bvh(&sk, &motion)? } else { write_amc(&sk, &motion)? };
-            write_output(output, |w| Ok(w.write_all(text.as_bytes())?))?;
-        }
+    let sk = match format {
+        Format::Amc | Format::Bvh => Some(match (skeleton, &m.skeleton_asf) {
+            (Some(p), _) => Skeleton::from_file(p)?,
+            (None, Some(text)) => {
+                cpg_mocap::parse_asf(&format!("the skeleton stored in {}", model.display()), text.as_bytes())
+                    .map_err(cpg_mocap::Error::from)?
+            }
+            (None, None) => {
+                bail!("{} stores no skeleton (it was trained from arrays): give --skeleton FILE.asf", model.display())
+            }
+        }),
+        _ => None,
+    };
+    let run = run_units(&m, &controls, n)?;
+    cpg_lab::format::write_run(output, format, &m, &run, sk.as_ref())?;
+    if format == Format::Npy {
+        let names: Vec<&str> = m.outputs.iter().map(|o| o.name.as_str()).collect();
+        eprintln!("columns: {} (degrees for rotation channels)", names.join(", "));
     }
     eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) as {format} to {}", dest.describe());
     Ok(())
@@ -378,17 +224,11 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     // The sizes are checked before anything runs.
     steps(a.seconds, rate, m.outputs.len())?;
     cpg_hoap2::JointTrajectory::check_rate(a.rate_hz.unwrap_or(rate), a.seconds, map.entries.len())?;
-    let format = output_format(a.format, a.output, &["csv", "npy", "json", "yaml"], "csv")?;
+    let format = Format::choose(a.format, a.output, &Format::TRAJECTORY, Format::Csv)?;
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
     let target = cpg_lab::stream::RobotTarget { robot: &robot, map: &map, acceleration_rad_s2: a.acceleration_rad_s2 };
     let t = cpg_lab::stream::joint_trajectory(&m, &controls, a.seconds, a.rate_hz, target)?;
-    let text = match format.as_str() {
-        "json" => t.to_ros_json(),
-        "yaml" => t.to_ros_yaml(),
-        "npy" => String::new(),
-        _ => t.to_csv(),
-    };
     eprintln!(
         "{:<14} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>8} {:>8} {:>8}",
         "joint", "position", "max excess", "min (deg)", "max (deg)", "speed asked", "acc asked", "speed", "acc", "lag"
@@ -428,17 +268,12 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         }
         eprintln!("warning: {} (--strict makes this an error)", crate::show(&msg.to_string()));
     }
-    if format == "npy" {
-        // frames × joints × (angle, velocity, acceleration).
-        let values =
-            (0..t.values_rad.len()).flat_map(|k| [t.values_rad[k], t.velocities_rad_s[k], t.accelerations_rad_s2[k]]);
-        write_output(a.output, |w| crate::npy::write_npy(w, &[t.n_frames(), t.joints.len(), 3], values))?;
+    cpg_lab::format::write_trajectory(a.output, format, &t)?;
+    if format == Format::Npy {
         eprintln!(
             "npy: frames × joints × (angle rad, velocity rad/s, acceleration rad/s²); joints: {}",
             t.joints.join(", ")
         );
-    } else {
-        write_output(a.output, |w| Ok(w.write_all(text.as_bytes())?))?;
     }
     eprintln!(
         "wrote {} frames ({} s at {} Hz) of {} HOAP-2 joints ({format}: positions rad, velocities rad/s, accelerations rad/s²) to {}",
@@ -467,7 +302,8 @@ pub fn evaluate(
         (None, None) => None,
         _ => Some(schedule(&m, control, control_file)?),
     };
-    let out = cpg_lab::measure::judge(&m, n, given.as_ref()).with_context(|| model.display().to_string())?;
+    let out =
+        cpg_lab::measure::judge(&m, n, given.as_ref(), crate::cores()).with_context(|| model.display().to_string())?;
     if json {
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());

@@ -130,7 +130,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     // The same rate range as a resampled trajectory; the stream holds no frames, so only the duration is bounded.
     cpg_hoap2::JointTrajectory::check_rate(rate, 0.0, 1).context("--rate-hz")?;
     if let Some(sec) = s.seconds {
-        super::check_seconds(sec)?;
+        cpg_lab::run::check_seconds("--seconds", sec)?;
     }
     if !(s.acceleration_rad_s2.is_finite() && s.acceleration_rad_s2 > 0.0) {
         bail!("--acceleration-rad-s2 {}: expected a positive bound", s.acceleration_rad_s2);
@@ -169,7 +169,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
         }
         _ => {
             for o in &m.outputs {
-                write!(out, ",{}{}", o.name, super::unit_suffix(&o.name))?;
+                write!(out, ",{}{}", o.name, cpg_lab::format::unit_suffix(&o.name))?;
             }
         }
     }

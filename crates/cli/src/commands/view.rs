@@ -9,7 +9,9 @@ use cpg_reservoir::TrainedCpg;
 use cpg_view::{Camera, Figure, GifOptions, Scene};
 
 use super::{schedule, steps};
-use crate::output::{check_writable, write_output};
+use cpg_lab::format::Format;
+
+use crate::output::check_writable;
 
 /// `cpg view`'s arguments.
 pub struct View<'a> {
@@ -33,7 +35,7 @@ pub struct View<'a> {
 }
 
 pub fn run(a: View<'_>) -> anyhow::Result<()> {
-    let format = super::output_format(a.format, a.output, &["html", "gif"], "html")?;
+    let format = Format::choose(a.format, a.output, &Format::SCENE, Format::Html)?;
     if !(a.yaw_deg.is_finite() && (-360.0..=360.0).contains(&a.yaw_deg)) {
         bail!("--yaw-deg {}: expected an angle from -360 to 360", a.yaw_deg);
     }
@@ -47,18 +49,12 @@ pub fn run(a: View<'_>) -> anyhow::Result<()> {
         (None, Some(motion)) => recording_scene(&a, motion)?,
     };
     scene.camera = Camera { yaw_deg: a.yaw_deg, ..Camera::default() };
-    let bytes = match format.as_str() {
-        "gif" => {
-            let opts = GifOptions { seconds: Some(a.gif_seconds), fps: a.fps, ..GifOptions::default() };
-            scene.to_gif(&opts)?
-        }
-        _ => scene.to_html().into_bytes(),
-    };
-    write_output(a.output, |w| Ok(w.write_all(&bytes)?))?;
+    let gif = GifOptions { seconds: Some(a.gif_seconds), fps: a.fps, ..GifOptions::default() };
+    cpg_lab::format::write_scene(a.output, format, &scene, &gif)?;
     let labels: Vec<&str> = scene.figures.iter().map(|f| f.label.as_str()).collect();
     eprintln!(
         "wrote {} ({} frames, {:.1} s at {} Hz: {}) to {}",
-        if format == "gif" { "an animated GIF" } else { "a self-contained HTML page" },
+        if format == Format::Gif { "an animated GIF" } else { "a self-contained HTML page" },
         scene.n_frames(),
         scene.n_frames() as f64 / scene.rate_hz,
         scene.rate_hz,

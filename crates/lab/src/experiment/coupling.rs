@@ -271,7 +271,8 @@ fn plan(c: &Config, k: &CouplingTestSection, opts: Options) -> Result<Plan> {
     let prep = prepare(&c)?;
     let rate = c.data.rate_hz;
     let d = prep.outputs.len();
-    let teacher = prep.teachers.first().ok_or_else(|| Error::Data("E6 needs a looped (periodic) segment".into()))?;
+    let teacher =
+        prep.teachers.first().ok_or_else(|| Error::Unusable("E6 needs a looped (periodic) segment".into()))?;
     let p = teacher.cycle.len() / d;
     let refc = prep.outputs.iter().position(|o| o.name == k.reference).ok_or_else(|| {
         c.error("experiment.coupling.reference", format!("'{}' is not a learnt channel", k.reference))
@@ -289,7 +290,7 @@ fn plan(c: &Config, k: &CouplingTestSection, opts: Options) -> Result<Plan> {
 /// seed's run is shown in full (tables, portraits, view, HOAP-2).
 pub fn run(c: &Config, k: &CouplingTestSection, opts: Options, progress: &dyn Progress) -> Result<CouplingResult> {
     let mut v = run_together(&[(c, k)], opts, progress)?;
-    v.pop().ok_or_else(|| Error::Data("E6 ran no configuration".into()))
+    v.pop().ok_or_else(|| Error::Unusable("E6 ran no configuration".into()))
 }
 
 /// Runs several E6 configurations as [`run`] runs each, with the same results.
@@ -321,9 +322,9 @@ pub fn run_together(
     let train_seed = |&seed: &u64| -> Result<Vec<TrainedCpg>> {
         // The weights and their spectral radius are drawn once for the seed.
         let drawn = reservoir_for(&first_plan.c, &first_plan.prep, seed)?;
-        plans.iter().map(|pl| train_prepared_on(&pl.c, &pl.prep, seed, Some(drawn.clone()))).collect()
+        plans.iter().map(|pl| train_prepared_on(&pl.c, &pl.prep, seed, Some(drawn.clone()), opts.threads)).collect()
     };
-    let width = rayon::current_num_threads().max(1);
+    let width = opts.threads.max(1);
     let mut all: Vec<Vec<CouplingSeed>> = plans.iter().map(|_| Vec::with_capacity(seeds.len())).collect();
     let mut first: Vec<Option<Kept>> = plans.iter().map(|_| None).collect();
     for (ci, chunk) in seeds.chunks(width).enumerate() {
@@ -339,7 +340,7 @@ pub fn run_together(
                 .zip(&plans)
                 .map(|(m, pl)| RunSpec { model: m, controls: &none, steps: pl.n, push: None, noise: None })
                 .collect();
-            let ys = free_runs(&specs)?;
+            let ys = free_runs(&specs, opts.threads)?;
             drop(specs);
             for (p, ((m, y), pl)) in models.into_iter().zip(ys).zip(&plans).enumerate() {
                 let rows = lag_rows(&pl.prep, &y, pl.n, pl.ten, pl.p, pl.refc);
@@ -371,12 +372,11 @@ fn finish(
     let Plan { c, k, prep, d, p, refc, n, ten, .. } = pl;
     let (c, k, prep, d, p, refc, n, ten) = (c, k, prep, *d, *p, *refc, *n, *ten);
     let rate = c.data.rate_hz;
-    let (m, y, rows) = first.ok_or_else(|| Error::Data("E6 ran no seed".into()))?;
+    let (m, y, rows) = first.ok_or_else(|| Error::Unusable("E6 ran no seed".into()))?;
     let end_win = &y[(n - ten) * d..];
     let worst_drift = worst(&rows);
     let median_cycle_nmse = median_nmse(&rows);
-    let last10_units: Vec<f64> =
-        end_win.iter().enumerate().map(|(i, v)| v * m.outputs[i % d].std + m.outputs[i % d].mean).collect();
+    let last10_units = cpg_reservoir::to_units(&m.outputs, end_win);
     let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
     let robot = match &k.robot {
         Some(r) => Some((Robot::from_urdf_file(&r.urdf)?, ChannelMap::load(&r.map)?)),
@@ -478,8 +478,7 @@ fn hoap2_loop(
         .min_by(|a, b| seam(*a).total_cmp(&seam(*b)))
         .unwrap_or(target);
     let from = n - len - 2 * LOOP_MARGIN;
-    let units: Vec<f64> =
-        y[from * d..].iter().enumerate().map(|(i, v)| v * m.outputs[i % d].std + m.outputs[i % d].mean).collect();
+    let units = cpg_reservoir::to_units(&m.outputs, &y[from * d..]);
     let mapped = map.apply(robot, names, &units, rate)?;
     let cut = |t: &JointTrajectory, a: usize, k: usize| -> JointTrajectory {
         let j = t.joints.len();
@@ -650,13 +649,11 @@ fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Re
         return Ok((None, f64::NAN));
     };
     let scale = robot_leg / (femur + tibia);
-    let d = names.len();
-    let units: Vec<f64> =
-        seg.iter().enumerate().map(|(i, z)| z * prep.outputs[i % d].std + prep.outputs[i % d].mean).collect();
+    let units = cpg_reservoir::to_units(&prep.outputs, seg);
     let channels = names
         .iter()
         .map(|n| {
-            cpg_mocap::Channel::parse(n).ok_or_else(|| crate::Error::Data(format!("'{n}' is not a mocap channel")))
+            cpg_mocap::Channel::parse(n).ok_or_else(|| crate::Error::name(n, format!("'{n}' is not a mocap channel")))
         })
         .collect::<Result<Vec<_>>>()?;
     let m = sk.complete(&cpg_mocap::Motion::new(channels, units, rate)?)?;

@@ -496,7 +496,7 @@ fn name(p: &Path) -> String {
 fn point_coords(all: &[String], names: &[&str]) -> Result<Vec<usize>> {
     let mut out = Vec::new();
     for n in names {
-        let p = all.iter().position(|a| a == n).ok_or_else(|| Error::Data(format!("no point {n}")))?;
+        let p = all.iter().position(|a| a == n).ok_or_else(|| Error::name(n, format!("no point {n}")))?;
         out.extend([3 * p, 3 * p + 1, 3 * p + 2]);
     }
     Ok(out)
@@ -578,7 +578,7 @@ impl Trial {
         let fk = sk.forward_kinematics(&motion)?;
         let names = fk.names.clone();
         let marker = |n: &str, c: usize| -> Result<usize> {
-            Ok(names.iter().position(|a| a == n).ok_or_else(|| Error::Data(format!("no point {n}")))? * 3 + c)
+            Ok(names.iter().position(|a| a == n).ok_or_else(|| Error::name(n, format!("no point {n}")))? * 3 + c)
         };
         let control_pts = [("root", 2), ("ltibia", 1), ("rtibia", 1)];
         let control = control_pts.iter().map(|(n, c)| marker(n, *c)).collect::<Result<_>>()?;
@@ -639,6 +639,15 @@ pub fn run(
     opts: Options,
     progress: &dyn Progress,
 ) -> Result<FamiliesResult> {
+    crate::in_pool(opts.threads, || run_here(fc, e6, opts, progress))
+}
+
+fn run_here(
+    fc: &FamiliesConfig,
+    e6: Option<&TrainedCpg>,
+    opts: Options,
+    progress: &dyn Progress,
+) -> Result<FamiliesResult> {
     let f = &fc.families;
     let tr = Trial::load(f)?;
     let own;
@@ -652,7 +661,7 @@ pub fn run(
                 c.reservoir.n_neurons = Some(k.quick_neurons);
             }
             progress.start("training the E6 reservoir", 1);
-            own = crate::train::train(&c)?.0;
+            own = crate::train::train(&c, opts.threads)?.0;
             progress.finish();
             &own
         }
@@ -662,7 +671,7 @@ pub fn run(
     let data = tr.motion.select(&refs)?.values().to_vec();
     let femur = names.iter().position(|n| n == "lfemur.rx");
     let (period, _, _) = gait_period(&data, names.len(), 60, 200, femur)
-        .ok_or_else(|| Error::Data(format!("no gait period in {}", name(&f.trial))))?;
+        .ok_or_else(|| Error::Unusable(format!("no gait period in {}", name(&f.trial))))?;
     let res = ReservoirAngles { model: m6, names, data, period };
     let mut r = FamiliesResult {
         non_segmented: non_segmented(&tr, f, &res, opts, progress)?,
@@ -722,7 +731,7 @@ fn non_segmented(
         .iter()
         .min_by(|a, b| a.aicc.total_cmp(&b.aicc))
         .map(|r| r.spec)
-        .ok_or_else(|| Error::Data("no fits".into()))?;
+        .ok_or_else(|| Error::Unusable("no fits".into()))?;
     let (r_all, r_legs) = tr.errors(x, &y_res)?;
     Ok(NonSegmented {
         trial: name(&f.trial),
@@ -787,7 +796,7 @@ fn generalisation(tr: &Trial, f: &FamiliesSection, res: &ReservoirAngles<'_>) ->
     let b01 = body_frame(&tr.sk, &m01)?;
     let t01 = b01.len() / d;
     let lp = best_loop(&b02, d, res.period, 1)
-        .ok_or_else(|| Error::Data(format!("no seamless cycle in {}", name(&f.trial))))?;
+        .ok_or_else(|| Error::Unusable(format!("no seamless cycle in {}", name(&f.trial))))?;
     let cyc = &b02[lp.start * d..(lp.start + lp.len) * d];
     let tiled = tile(cyc, d, 10 * lp.len, 0);
     let max_off = lp.len;
@@ -837,7 +846,7 @@ fn generalisation(tr: &Trial, f: &FamiliesSection, res: &ReservoirAngles<'_>) ->
 }
 
 /// Every family learns E1's femur cycle and is held away from it for 50 ms.
-fn perturbation(f: &FamiliesSection, _opts: Options, progress: &dyn Progress) -> Result<Perturbation> {
+fn perturbation(f: &FamiliesSection, opts: Options, progress: &dyn Progress) -> Result<Perturbation> {
     let rate = f.rate_hz;
     let mut models = Vec::new();
     progress.start("reservoirs for the perturbation", f.perturbation.len() as u64);
@@ -847,20 +856,20 @@ fn perturbation(f: &FamiliesSection, _opts: Options, progress: &dyn Progress) ->
             .experiment
             .as_ref()
             .map(|e| format!("reservoir CPG ({}, {} protocol, seed {})", e.id, e.protocol, c.reservoir.seed));
-        let (m, _) = crate::train::train(&c)?;
+        let (m, _) = crate::train::train(&c, opts.threads)?;
         models.push((label.unwrap_or_else(|| name(p)), m));
         progress.tick();
     }
     progress.finish();
-    let (_, m1) = models.first().ok_or_else(|| Error::Data("families.perturbation names no configuration".into()))?;
+    let (_, m1) =
+        models.first().ok_or_else(|| Error::Unusable("families.perturbation names no configuration".into()))?;
     let teacher =
-        m1.teachers.first().ok_or_else(|| Error::Data("the perturbation model has no teacher cycle".into()))?;
+        m1.teachers.first().ok_or_else(|| Error::Unusable("the perturbation model has no teacher cycle".into()))?;
     let o = &m1.outputs[0];
-    let cycle_units: Vec<f64> =
-        column(&teacher.cycle, m1.outputs.len(), 0).iter().map(|z| z * o.std + o.mean).collect();
+    let cycle_units: Vec<f64> = column(&teacher.cycle, m1.outputs.len(), 0).iter().map(|z| o.to_units(*z)).collect();
     let p = cycle_units.len();
     let held_z = column(&teacher.cycle, m1.outputs.len(), 0).into_iter().fold(f64::NEG_INFINITY, f64::max) + 2.0;
-    let held = held_z * o.std + o.mean;
+    let held = o.to_units(held_z);
     let (at, hold) = ((2.0 * rate).round() as usize, ((0.05 * rate).round() as usize).max(1));
     let total = at + hold + 40 * p;
     let tiled1 = tile(&cycle_units, 1, 10 * p, 0);

@@ -228,10 +228,10 @@ pub fn run(c: &Config, f: &FrequencySection, opts: Options, progress: &dyn Progr
     if f.plateaus.is_empty() {
         return Err(c.error("experiment.frequency.plateaus", "is empty"));
     }
-    let (prep, models) = train_seeds(c, &seeds, progress)?;
+    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
     let rate = c.data.rate_hz;
     let d = prep.outputs.len();
-    let base = prep.teachers.first().ok_or_else(|| Error::Data("E4 needs a looped (periodic) segment".into()))?;
+    let base = prep.teachers.first().ok_or_else(|| Error::Unusable("E4 needs a looped (periodic) segment".into()))?;
     let base = Teacher { rate: 1.0, controls: vec![1.0], ..base.clone() };
     let p = base.cycle.len() / d;
     let f0 = rate / p as f64;

@@ -218,7 +218,7 @@ fn last_control(s: &ControlSchedule, n: usize, rate: f64) -> Vec<f64> {
 /// Runs E5 on configuration `c`.
 pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress) -> Result<GaitsResult> {
     let seeds = seeds(c, opts)?;
-    let (prep, models) = train_seeds(c, &seeds, progress)?;
+    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
     if prep.teachers.len() != 2 {
         return Err(c.error("data.segments", format!("E5 needs two looped gaits; there are {}", prep.teachers.len())));
     }
@@ -328,8 +328,7 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
                     smooth_control: last_control(&smooth, n, rate),
                     abrupt_control: last_control(&abrupt, n, rate),
                 };
-                let units: Vec<f64> =
-                    ys.iter().enumerate().map(|(k, v)| v * m.outputs[k % d].std + m.outputs[k % d].mean).collect();
+                let units = cpg_reservoir::to_units(&m.outputs, &ys);
                 let view = crate::scene::run_scene(
                     &super::view_title(c),
                     m,

@@ -67,11 +67,19 @@ impl Progress for Quiet {
     fn finish(&self) {}
 }
 
-/// How big a run is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How big a run is, and on how many threads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Options {
     /// The quick variant: fewer seeds and shorter runs (the `quick_*` keys).
     pub quick: bool,
+    /// Threads the experiment runs on (its own pool; the results do not depend on it).
+    pub threads: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { quick: false, threads: 1 }
+    }
 }
 
 /// How one seed's model was trained.
@@ -276,15 +284,21 @@ pub fn seeds(c: &Config, opts: Options) -> Result<Vec<u64>> {
     Ok((0..n).map(|k| c.reservoir.seed + k).collect())
 }
 
-/// Prepares the data once and trains one model per seed (seeds in parallel,
-/// results in seed order: the same whatever the thread count).
-pub fn train_seeds(c: &Config, seeds: &[u64], progress: &dyn Progress) -> Result<(Prepared, Vec<TrainedCpg>)> {
+/// Prepares the data once and trains one model per seed (seeds in parallel
+/// on the caller's pool, each validation on `threads` threads; results in
+/// seed order: the same whatever the thread count).
+pub fn train_seeds(
+    c: &Config,
+    seeds: &[u64],
+    threads: usize,
+    progress: &dyn Progress,
+) -> Result<(Prepared, Vec<TrainedCpg>)> {
     let p = prepare(c)?;
     progress.start("training", seeds.len() as u64);
     let models: Result<Vec<TrainedCpg>> = seeds
         .par_iter()
         .map(|&s| {
-            let m = train_prepared(c, &p, s);
+            let m = train_prepared(c, &p, s, threads);
             progress.tick();
             m
         })
@@ -344,9 +358,13 @@ pub fn share_reservoirs(a: &Config, b: &Config) -> bool {
 /// configurations that [`share_reservoirs`] run their seeds together (see
 /// [`coupling::run_together`]); the others run one after another.
 pub fn run_together(cs: &[&Config], opts: Options, progress: &dyn Progress) -> Result<Vec<Outcome>> {
+    crate::in_pool(opts.threads, || run_together_here(cs, opts, progress))
+}
+
+fn run_together_here(cs: &[&Config], opts: Options, progress: &dyn Progress) -> Result<Vec<Outcome>> {
     let shared = cs.len() > 1 && cs.windows(2).all(|w| share_reservoirs(w[0], w[1]));
     if !shared {
-        return cs.iter().map(|c| run(c, opts, progress)).collect();
+        return cs.iter().map(|c| run_here(c, opts, progress)).collect();
     }
     let items = cs
         .iter()
@@ -358,8 +376,12 @@ pub fn run_together(cs: &[&Config], opts: Options, progress: &dyn Progress) -> R
     Ok(coupling::run_together(&items, opts, progress)?.into_iter().map(|r| Outcome::Coupling(Box::new(r))).collect())
 }
 
-/// Runs the experiment of `c`.
+/// Runs the experiment of `c` on a pool of `opts.threads` threads.
 pub fn run(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome> {
+    crate::in_pool(opts.threads, || run_here(c, opts, progress))
+}
+
+fn run_here(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome> {
     let e = section(c)?;
     match (&e.stability, &e.frequency, &e.gaits, &e.coupling) {
         (Some(s), None, None, None) => Ok(Outcome::Stability(Box::new(stability::run(c, s, opts, progress)?))),

@@ -9,9 +9,9 @@ use cpg_reservoir::{Teacher, TrainedCpg};
 
 use super::claim::{self, Claim, Measure, Source, Verdict};
 use super::{Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
-use crate::config::{Config, PushSection, StabilitySection};
+use crate::config::{Config, StabilitySection};
 use crate::error::{Error, Result};
-use crate::measure::{Push, Recovery, Stability, column, free_run, recovery, stability};
+use crate::measure::{Recovery, Stability, column, free_run, push_for, recovery, stability};
 use crate::schedule::ControlSchedule;
 
 /// The rule of a seed's E2 verdict, as printed beside it.
@@ -262,7 +262,7 @@ impl StabilityResult {
 
 fn to_units(m: &TrainedCpg, c: usize, z: &[f64]) -> Vec<f64> {
     let o = &m.outputs[c];
-    z.iter().map(|v| v * o.std + o.mean).collect()
+    z.iter().map(|v| o.to_units(*v)).collect()
 }
 
 /// The teacher continued from the end of a warm-up of `warmup_len` frames: `n` frames.
@@ -281,22 +281,18 @@ pub fn continuation(t: &Teacher, d: usize, warmup_len: usize, n: usize) -> Vec<f
 /// target's variance, averaged: [`cpg_regression::nmse`], the one definition.
 pub use cpg_regression::nmse;
 
-/// The push of `p` for teacher `t`.
-pub fn push_for(p: &PushSection, t: &Teacher, d: usize, rate_hz: f64) -> Push {
-    let values =
-        (0..d).map(|c| column(&t.cycle, d, c).into_iter().fold(f64::NEG_INFINITY, f64::max) + p.above_max).collect();
-    Push { at: (p.at_s * rate_hz).round() as usize, len: ((p.hold_s * rate_hz).round() as usize).max(1), values }
-}
-
 /// Runs E1–E3 on configuration `c`.
 pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progress) -> Result<StabilityResult> {
     let seeds = seeds(c, opts)?;
-    let (prep, models) = train_seeds(c, &seeds, progress)?;
+    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
     let rate = c.data.rate_hz;
     let long_s = if opts.quick { s.quick_long_run_s } else { s.long_run_s };
     let long = (long_s * rate).round() as usize;
-    let teacher =
-        prep.teachers.first().cloned().ok_or_else(|| Error::Data("E1–E3 need a looped (periodic) segment".into()))?;
+    let teacher = prep
+        .teachers
+        .first()
+        .cloned()
+        .ok_or_else(|| Error::Unusable("E1–E3 need a looped (periodic) segment".into()))?;
     let d = prep.outputs.len();
     let p = teacher.cycle.len() / d;
     let push = push_for(&s.push, &teacher, d, rate);
@@ -335,7 +331,7 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
                 let span = (10 * rate as usize).min(release + after);
                 // While held, the output is the held value (the paper's "output was forced").
                 let mut pushed0 = to_units(m, 0, &column(&pushed[..span * d], d, 0));
-                let held0 = push.values[0] * m.outputs[0].std + m.outputs[0].mean;
+                let held0 = m.outputs[0].to_units(push.values[0]);
                 for v in pushed0.iter_mut().skip(push.at).take(push.len) {
                     *v = held0;
                 }
@@ -365,7 +361,7 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
     progress.finish();
     let per_seed = per_seed?;
     let m0 = &models[0];
-    let held_units = push.values.iter().enumerate().map(|(k, v)| v * m0.outputs[k].std + m0.outputs[k].mean).collect();
+    let held_units = push.values.iter().zip(&m0.outputs).map(|(v, o)| o.to_units(*v)).collect();
     let fig2 = per_seed.iter().find_map(|(_, f)| f.clone()).unwrap_or_default();
     let mut r = StabilityResult {
         header: header(c, &prep, m0.reservoir.n_neurons())?,
