@@ -7,6 +7,7 @@ mod fetch;
 mod figures;
 mod fuzz;
 mod hoap2_model;
+mod process;
 mod python;
 mod report;
 mod train;

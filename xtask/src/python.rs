@@ -1,13 +1,15 @@
 //! `cargo xtask python`: installs the Python package (crates/python) into a
 //! virtual environment of its own, with what its tests need from the
-//! package registry (maturin, pytest, numpy, mujoco, optuna), and runs its tests.
+//! package registry (maturin, pytest, numpy, mujoco, optuna, mypy), checks
+//! its stubs against the compiled module (`mypy.stubtest`) and runs its tests.
 
 use anyhow::{Context, bail};
 
-use crate::ci::cmd;
+use crate::process::cmd;
 
 /// What the tests need from PyPI, beside the package's own dependencies.
-const TEST_PACKAGES: [&str; 5] = ["maturin>=1.7,<2", "pytest>=7", "numpy>=1.21", "mujoco>=3.2", "optuna>=3"];
+const TEST_PACKAGES: [&str; 6] =
+    ["maturin>=1.7,<2", "pytest>=7", "numpy>=1.21", "mujoco>=3.2", "optuna>=3", "mypy==2.4.1"];
 
 /// The environment: `target/python-venv` (never committed).
 pub fn venv() -> anyhow::Result<std::path::PathBuf> {
@@ -59,6 +61,9 @@ pub fn run() -> anyhow::Result<()> {
         &[],
     )
     .context("installing the cpg wheel")?;
+    // The hand-written stubs must say what the compiled module holds.
+    cmd(&py, &["-m", "mypy.stubtest", "cpg._cpg", "--ignore-missing-stub"], &[("VIRTUAL_ENV", venv_dir.as_str())])
+        .context("the stubs crates/python/python/cpg/_cpg.pyi disagree with the module (mypy.stubtest)")?;
     let bin = crate::root().join("target").join("release").join("cpg");
     let bin = bin.display().to_string();
     cmd(

@@ -157,11 +157,14 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
     }
     controls.check(m.controls.len())?;
     let rate_hz = m.provenance.sample_rate_hz;
-    let mut values = if opts.threads > 1 || opts.cancel.is_none() {
+    let values = if opts.threads > 1 || opts.cancel.is_none() {
         let spec = RunSpec { model: m, controls, steps, push: None, noise: None };
-        free_runs_on(&[spec], opts.threads)?.pop().unwrap_or_else(|| Ok(Vec::new()))?
+        let mut y = free_runs_on(&[spec], opts.threads)?.pop().unwrap_or_else(|| Ok(Vec::new()))?;
+        cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
+        y
     } else {
-        // One thread, step by step (the same bits as a batched run), checking the flag.
+        // One thread, step by step (the same bits as a batched run, in units:
+        // the generator de-normalises), checking the flag.
         let cancel = opts.cancel.unwrap_or(&NEVER);
         let mut g = Generator::new(m);
         let mut u = vec![0.0; m.controls.len()];
@@ -175,7 +178,6 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
         }
         y
     };
-    cpg_reservoir::to_units_in_place(&m.outputs, &mut values);
     Ok(Some(Run { values, steps, rate_hz }))
 }
 

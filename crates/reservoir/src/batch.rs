@@ -25,24 +25,7 @@ use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
 use crate::model::TrainedCpg;
 
-/// Control values over time.
-pub trait Controls: Sync {
-    /// Writes the control values of step `step` into `out` (one per control input).
-    fn fill(&self, step: usize, out: &mut [f64]);
-}
-
-/// Constant controls.
-impl Controls for [f64] {
-    fn fill(&self, _step: usize, out: &mut [f64]) {
-        out.copy_from_slice(self);
-    }
-}
-
-impl Controls for Vec<f64> {
-    fn fill(&self, _step: usize, out: &mut [f64]) {
-        out.copy_from_slice(self);
-    }
-}
+pub use crate::controls::Controls;
 
 /// One free run from a model's start state.
 #[derive(Clone, Copy)]

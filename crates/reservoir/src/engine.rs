@@ -302,7 +302,7 @@ pub(crate) enum ControlSource<'a> {
     /// `steps × U`, precomputed.
     Table(&'a [f64]),
     /// A function of the step.
-    Fn(&'a (dyn crate::batch::Controls + 'a)),
+    Fn(&'a (dyn crate::controls::Controls + 'a)),
 }
 
 /// One free run of a batch: its own dynamics, readout, start, noise,

@@ -10,7 +10,7 @@ use crate::config::Precision;
 use crate::engine::{Engine, ReadoutR};
 use crate::error::{Error, Result};
 use crate::kernel::{Aligned, SimdDot};
-use crate::model::TrainedCpg;
+use crate::model::{OutputChannel, TrainedCpg};
 use crate::reservoir::rng;
 
 #[derive(Debug, Clone)]
@@ -107,8 +107,7 @@ enum Inner {
 #[derive(Debug, Clone)]
 pub struct Generator {
     inner: Inner,
-    mean: Vec<f64>,
-    std: Vec<f64>,
+    outputs: Vec<OutputChannel>,
     normalised: Vec<f64>,
     out: Vec<f64>,
     n_controls: usize,
@@ -127,8 +126,7 @@ impl Generator {
         let d = model.outputs.len();
         Generator {
             inner,
-            mean: model.outputs.iter().map(|o| o.mean).collect(),
-            std: model.outputs.iter().map(|o| o.std).collect(),
+            outputs: model.outputs.clone(),
             normalised: vec![0.0; d],
             out: vec![0.0; d],
             n_controls: model.controls.len(),
@@ -235,8 +233,8 @@ impl Generator {
             self.diverged = true;
             return Err(Error::Diverged { what: "state or output", step: self.steps });
         }
-        for ((o, v), (m, s)) in self.out.iter_mut().zip(&self.normalised).zip(self.mean.iter().zip(&self.std)) {
-            *o = v * s + m;
+        for ((o, v), ch) in self.out.iter_mut().zip(&self.normalised).zip(&self.outputs) {
+            *o = ch.to_units(*v);
         }
         Ok(&self.out)
     }

@@ -30,6 +30,7 @@
 
 pub mod batch;
 mod config;
+mod controls;
 mod engine;
 mod error;
 mod generator;

@@ -1,7 +1,7 @@
 """Type stubs of the native module ``cpg._cpg`` (re-exported by ``cpg``)."""
 
 from os import PathLike
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -18,10 +18,11 @@ _ArrayLike = npt.ArrayLike
 class CpgError(ValueError):
     """An error of the cpg library, with the library's message."""
 
+@final
 class Motion:
     """A motion: frames × channels at a sample rate, with its skeleton when read from a file."""
 
-    def __init__(self, values: _ArrayLike, channels: Sequence[str], rate_hz: float) -> None:
+    def __new__(cls, values: _ArrayLike, channels: Sequence[str], rate_hz: float) -> "Motion":
         """A motion from arrays (frames × channels, names ``bone.dof``); it has no skeleton."""
 
     @property
@@ -58,6 +59,7 @@ def read_motion(
     """Reads AMC (with its ASF ``skeleton``; 120 Hz unless ``rate_hz``) or BVH (its own frame time;
     length unit ``bvh_unit_mm`` or inferred from the figure's size)."""
 
+@final
 class Generator:
     """A model run one step at a time from its start state (allocation-free in Rust)."""
 
@@ -71,6 +73,7 @@ class Generator:
     @property
     def diverged(self) -> bool: ...
 
+@final
 class Stream:
     """A model at any tick rate (ticks between its steps interpolated), optionally as HOAP-2 joint angles."""
 
@@ -83,6 +86,7 @@ class Stream:
     @property
     def rate_hz(self) -> float: ...
 
+@final
 class Model:
     """A trained CPG (the model files of ``cpg train``)."""
 
