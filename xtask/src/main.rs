@@ -47,9 +47,10 @@ enum Command {
         args: Vec<String>,
     },
     /// Build the Python package (crates/python) into target/python-venv with
-    /// maturin, pytest, numpy and mujoco from PyPI, and run its tests
-    /// (crates/python/tests: the README's Python quick start, the same bits
-    /// as `cpg train`, the MuJoCo example).
+    /// maturin, pytest, numpy, mujoco, optuna and mypy from PyPI, check its
+    /// type stubs against the compiled module (mypy.stubtest), and run its
+    /// tests (crates/python/tests: the README's Python quick start, the same
+    /// bits as `cpg train`, the MuJoCo example).
     Python,
     /// Train experiment configurations of experiments/ and save their models
     /// (the same models the report trains; `cpg train --config` does the same for one file).

@@ -235,6 +235,29 @@ pub fn write_output<E: From<Error>>(
     }
 }
 
+/// `path` with `.` and `..` resolved without touching the file system (the
+/// one path normaliser): `..` removes the component before it, is dropped
+/// at the root (whose parent is itself) and kept at the start of a relative
+/// path (`../x` stays).
+pub fn lexical(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => match out.components().next_back() {
+                Some(Component::Normal(_)) => {
+                    out.pop();
+                }
+                Some(Component::RootDir | Component::Prefix(_)) => {}
+                _ => out.push(".."),
+            },
+            other => out.push(other),
+        }
+    }
+    out
+}
+
 /// Writes `bytes` to the regular file `path` atomically: a new file or a
 /// regular one (a symlink's target), never a device, FIFO or directory.
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -297,6 +320,16 @@ fn remove_stale(dir: &Path, name: &str) {
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
+
+    #[test]
+    fn paths_are_normalised_lexically() {
+        let l = |p: &str| lexical(Path::new(p)).display().to_string();
+        assert_eq!(l("/a/b/../c/./d"), "/a/c/d");
+        assert_eq!(l("/../x"), "/x");
+        assert_eq!(l("../x/../y"), "../y");
+        assert_eq!(l("a/../../b"), "../b");
+        assert_eq!(l("./a/./b/"), "a/b");
+    }
 
     #[test]
     fn a_bounded_read_stops_at_the_bound_whatever_the_metadata_says() {

@@ -594,7 +594,7 @@ fn default_threshold() -> f64 {
 
 /// `path` relative to `dir`, through `..` where needed; both are made absolute first.
 pub fn relative_to(path: &Path, dir: &Path) -> PathBuf {
-    let abs = |p: &Path| std::path::absolute(p).map(|a| lexical(&a)).unwrap_or_else(|_| p.to_owned());
+    let abs = |p: &Path| std::path::absolute(p).map(|a| cpg_io::lexical(&a)).unwrap_or_else(|_| p.to_owned());
     let (p, d) = (abs(path), abs(dir));
     let (pc, dc): (Vec<_>, Vec<_>) = (p.components().collect(), d.components().collect());
     let common = pc.iter().zip(&dc).take_while(|(a, b)| a == b).count();
@@ -607,21 +607,6 @@ pub fn relative_to(path: &Path, dir: &Path) -> PathBuf {
     }
     for c in &pc[common..] {
         out.push(c);
-    }
-    out
-}
-
-/// `path` with `.` and `..` resolved without touching the file system.
-fn lexical(path: &Path) -> PathBuf {
-    let mut out = PathBuf::new();
-    for c in path.components() {
-        match c {
-            std::path::Component::ParentDir => {
-                out.pop();
-            }
-            std::path::Component::CurDir => {}
-            other => out.push(other),
-        }
     }
     out
 }

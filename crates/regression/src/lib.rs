@@ -19,10 +19,12 @@
 //! of threads; parallelism is across candidates.
 
 mod error;
+mod exp;
 mod ridge;
 mod sweep;
 
 pub mod fixed;
 pub use error::{Error, Result};
+pub use exp::exp_det;
 pub use ridge::{Readout, RidgePath, nmse, ridge_direct};
 pub use sweep::{PenaltyGrid, sweep, sweep_chunked};

@@ -95,33 +95,7 @@ impl Real for f64 {
         // tanh(19.1) = 1 − 5e-17 rounds to 1 in f64.
         let a = self.abs();
         let a = if a > 19.1 { 19.1 } else { a };
-        let y = 2.0 * a;
-        let t = y * std::f64::consts::LOG2_E + 6_755_399_441_055_744.0;
-        let k = t - 6_755_399_441_055_744.0;
-        let r = (y - k * 6.931_471_803_691_238e-1) - k * 1.908_214_929_270_587_7e-10;
-        // Taylor coefficients 1/n! for n = 0..=13, evaluated by Horner's rule.
-        const C: [f64; 14] = [
-            1.0,
-            1.0,
-            0.5,
-            1.0 / 6.0,
-            1.0 / 24.0,
-            1.0 / 120.0,
-            1.0 / 720.0,
-            1.0 / 5040.0,
-            1.0 / 40_320.0,
-            1.0 / 362_880.0,
-            1.0 / 3_628_800.0,
-            1.0 / 39_916_800.0,
-            1.0 / 479_001_600.0,
-            1.0 / 6_227_020_800.0,
-        ];
-        let mut p = C[13];
-        for c in C[..13].iter().rev() {
-            p = p * r + c;
-        }
-        let scale = f64::from_bits(t.to_bits().wrapping_sub(0x4338_0000_0000_0000 - 1023) << 52);
-        let e = p * scale;
+        let e = cpg_regression::exp_det(2.0 * a);
         (1.0 - 2.0 / (e + 1.0)).copysign(self)
     }
     #[inline(always)]

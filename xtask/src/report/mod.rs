@@ -88,16 +88,7 @@ static BAR: std::sync::Mutex<Option<ProgressBar>> = std::sync::Mutex::new(None);
 
 /// A path relative to the workspace root, `..` resolved lexically.
 fn rel(p: &Path) -> String {
-    let mut out = PathBuf::new();
-    for c in p.components() {
-        match c {
-            std::path::Component::ParentDir => {
-                out.pop();
-            }
-            std::path::Component::CurDir => {}
-            other => out.push(other),
-        }
-    }
+    let out = cpg_io::lexical(p);
     let root = crate::root();
     let root = root.canonicalize().unwrap_or(root);
     out.strip_prefix(&root).or_else(|_| out.strip_prefix(crate::root())).unwrap_or(&out).display().to_string()

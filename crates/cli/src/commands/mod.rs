@@ -27,17 +27,7 @@ use crate::output::{check_writable, write_output};
 
 /// A path without `.`/`..` components, for messages.
 fn tidy(p: &Path) -> PathBuf {
-    let mut out = PathBuf::new();
-    for c in p.components() {
-        match c {
-            std::path::Component::ParentDir if out.file_name().is_some() => {
-                out.pop();
-            }
-            std::path::Component::CurDir => {}
-            other => out.push(other),
-        }
-    }
-    out
+    cpg_io::lexical(p)
 }
 
 /// Makes the directory of a config's `output.model` when it is missing.
