@@ -81,10 +81,76 @@ pub fn layering() -> anyhow::Result<()> {
         }
         eprintln!("layering: {krate} ok ({} packages in its tree)", deps.len());
     }
+    for (file, line, name, n) in long_functions(&crate::root())? {
+        broken.push(format!("{file}:{line}: fn {name} has {n} lines; at most {MAX_FUNCTION_LINES} in a library crate"));
+    }
     if !broken.is_empty() {
         bail!("layering rules broken (see ARCHITECTURE.md):\n  {}", broken.join("\n  "));
     }
     Ok(())
+}
+
+/// The longest a function of a library crate may be, lines.
+const MAX_FUNCTION_LINES: usize = 120;
+
+/// Functions of the library crates (every crate but the app) longer than
+/// [`MAX_FUNCTION_LINES`]: `(file, line, name, lines)`. A function runs from
+/// its `fn` line to the closing brace at the same indentation; the SIMD
+/// kernels written by `macro_rules!` are the stated exception (see kernel.rs).
+pub fn long_functions(root: &std::path::Path) -> anyhow::Result<Vec<(String, usize, String, usize)>> {
+    let mut files = Vec::new();
+    let mut stack = vec![root.join("crates")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).with_context(|| format!("reading {}", d.display()))? {
+            let p = e?.path();
+            if p.is_dir() {
+                let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                if !(d.ends_with("crates") && name == "cli") && name != "tests" && name != "target" {
+                    stack.push(p);
+                }
+            } else if p.extension().is_some_and(|x| x == "rs") && p.components().any(|c| c.as_os_str() == "src") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    let mut out = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f)?;
+        let lines: Vec<&str> = text.lines().collect();
+        let mut in_macro: Option<usize> = None;
+        for (i, l) in lines.iter().enumerate() {
+            let indent = l.len() - l.trim_start().len();
+            if l.starts_with("macro_rules!") {
+                in_macro = Some(indent);
+            } else if in_macro.is_some_and(|m| indent == m && l.trim() == "}") {
+                in_macro = None;
+            }
+            if in_macro.is_some() {
+                continue;
+            }
+            let t = l.trim_start();
+            let t = t.strip_prefix("pub(crate) ").or_else(|| t.strip_prefix("pub ")).unwrap_or(t);
+            let t = t.strip_prefix("const ").unwrap_or(t);
+            let t = t.strip_prefix("unsafe ").unwrap_or(t);
+            let Some(rest) = t.strip_prefix("fn ") else { continue };
+            let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            // A declaration without a body (a trait's) ends at its `;`.
+            let signature_end = lines[i..].iter().find(|x| x.contains('{') || x.trim_end().ends_with(';'));
+            if signature_end.is_some_and(|x| !x.contains('{')) {
+                continue;
+            }
+            let close = format!("{}}}", &l[..indent]);
+            if let Some(j) = lines[i + 1..].iter().position(|x| *x == close) {
+                let n = j + 2;
+                if n > MAX_FUNCTION_LINES {
+                    let rel = f.strip_prefix(root).unwrap_or(&f).display().to_string();
+                    out.push((rel, i + 1, name, n));
+                }
+            }
+        }
+    }
+    Ok(out)
 }
 
 pub fn run() -> anyhow::Result<()> {

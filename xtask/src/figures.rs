@@ -9,48 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::series::DashedLineSeries;
 
-/// How a curve is drawn.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Look {
-    /// The data the network learnt: dashed gray.
-    Teacher,
-    /// What the network generated: solid black.
-    Model,
-    /// A control input: dashed light gray (on a secondary scale given by the caller).
-    Control,
-    /// Data shown for context: solid light gray (phase portraits).
-    Data,
-    /// Vertical bars from 0 to each point's y, 0.8 x-units wide, dark gray.
-    Bars,
-    /// Points only (small black circles), e.g. values at a few settings.
-    Marks,
-    /// A value imposed from outside (a held output): thick dark red.
-    Held,
-}
-
-/// One curve; `label` names it in the panel's legend.
-pub struct Curve {
-    pub points: Vec<(f64, f64)>,
-    pub look: Look,
-    pub label: String,
-}
-
-impl Curve {
-    /// A curve with its legend label.
-    pub fn new(look: Look, label: impl Into<String>, points: Vec<(f64, f64)>) -> Curve {
-        Curve { points, look, label: label.into() }
-    }
-}
-
-/// One panel of a figure.
-pub struct Panel {
-    /// One unit on the x axis is as long as one on the y axis (a path seen from above).
-    pub equal_axes: bool,
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub curves: Vec<Curve>,
-}
+use cpg_lab::experiment::doc::{Look, Panel};
 
 const FONT_PATHS: &[&str] = &[
     "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",

@@ -137,6 +137,30 @@ pub fn root() -> PathBuf {
 mod tests {
     use clap::CommandFactory;
 
+    #[test]
+    fn no_library_function_is_longer_than_the_bound() {
+        let long = crate::ci::long_functions(&super::root()).unwrap();
+        assert!(long.is_empty(), "{long:?}");
+        // The scan finds a long function, and not one in a macro or the app.
+        let dir = std::env::temp_dir().join(format!("cpg-long-fns-{}", std::process::id()));
+        let body = "    let x = 1;\n".repeat(130);
+        for (p, text) in [
+            ("crates/a/src/lib.rs", format!("pub fn long() {{\n{body}}}\n\nfn short() {{\n}}\n")),
+            (
+                "crates/b/src/lib.rs",
+                format!("macro_rules! m {{\n    () => {{\n        fn inside() {{\n{body}        }}\n    }};\n}}\n"),
+            ),
+            ("crates/cli/src/main.rs", format!("fn main() {{\n{body}}}\n")),
+        ] {
+            let f = dir.join(p);
+            std::fs::create_dir_all(f.parent().unwrap()).unwrap();
+            std::fs::write(&f, text).unwrap();
+        }
+        let found = crate::ci::long_functions(&dir).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(found, vec![("crates/a/src/lib.rs".to_owned(), 1, "long".to_owned(), 132)]);
+    }
+
     /// `cargo xtask --help` and each task's help, pinned (UPDATE_SNAPSHOTS=1 rewrites them).
     #[test]
     fn help_texts_match_their_snapshots() {

@@ -9,8 +9,9 @@ use cpg_lab::Config;
 /// `cargo xtask train`.
 #[derive(Debug, clap::Args)]
 pub struct TrainArgs {
-    /// Which configurations of experiments/ to train: a name (e1, e1-paper,
-    /// e4, e4-paper, e5, e5-paper, e6, e6-paper) or all.
+    /// Which configurations of experiments/ to train: a file's name without
+    /// .toml (e1, e1-paper, e4, e4-extension, …) or all (every configuration
+    /// there with an `[experiment]` table).
     #[arg(long, default_value = "e1")]
     experiment: String,
     /// Reservoir seed [default: the configuration's].
@@ -23,15 +24,18 @@ pub struct TrainArgs {
 
 pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     let dir = crate::root().join("experiments");
+    let all = crate::report::reservoir_experiments()?;
+    let stem = |p: &PathBuf| p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let names: Vec<String> = if args.experiment == "all" {
-        crate::report::RESERVOIR.iter().map(|s| s.to_string()).collect()
+        all.iter().map(stem).collect()
     } else {
         vec![args.experiment.trim_end_matches(".toml").to_owned()]
     };
     for name in names {
         let path = dir.join(format!("{name}.toml"));
         if !path.is_file() {
-            bail!("no configuration {} (choose one of {} or all)", path.display(), crate::report::RESERVOIR.join(", "));
+            let known: Vec<String> = all.iter().map(stem).collect();
+            bail!("no configuration {} (choose one of {} or all)", path.display(), known.join(", "));
         }
         let mut c = Config::load(&path)?;
         if let Some(s) = args.seed {

@@ -257,7 +257,7 @@ fn config_sizes_are_checked_before_anything_is_read() {
             "washout = 9223372036854775807\nvalidation_samples = 9223372036854775807",
             &["training.washout", "0 to 2000000"],
         ),
-        ("long_run_s = 900 ", "long_run_s = 1e300 ", &["experiment.stability.long_run_s"]),
+        ("long_run_s = 900 ", "long_run_s = 1e300 ", &["experiment.test.stability.long_run_s"]),
     ];
     for (k, (a, b, needles)) in cases.iter().enumerate() {
         let c = e1_config(dir.path(), &format!("c{k}.toml"), &[(a, b)]);

@@ -432,8 +432,24 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
     };
     let home = home_pose_rad(&robot);
     let height = standing_height_m(&robot, shapes, &home)? + 0.0005;
-    let s = settings;
+    let mut out = mjcf_header(&r.name, settings);
+    let ctx = Ctx { urdf: &r, links: &links, shapes, path, trunk: root };
+    for l in &r.links {
+        shapes_of(shapes, &l.name, path)?;
+    }
+    let _ = writeln!(out, "    <body name=\"{root}\" pos=\"0 0 {}\">", num(height));
+    let _ = writeln!(out, "      <freejoint name=\"root\"/>");
+    body(&mut out, &ctx, root, None, 3)?;
+    let _ = writeln!(out, "    </body>");
+    let _ = writeln!(out, "  </worldbody>");
+    mjcf_actuators_and_sensors(&mut out, &r, shapes);
+    mjcf_keyframe(&mut out, &r, &robot, root, &home, height);
+    out.push_str("</mujoco>\n");
+    Ok(out)
+}
 
+/// The MJCF's opening: the model, the compiler, the defaults, the floor.
+fn mjcf_header(name: &str, s: &MjcfSettings) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -441,9 +457,9 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
          (cpg-hoap2's physics module; docs/hoap2-model.md states every setting). Servo stiffness,\n     \
          damping, armature, joint friction and the floor's friction are ours, not the sources'.\n     \
          The 5 rad/s speed limit is the commander's to keep: MuJoCo has none. -->",
-        r.name
+        name
     );
-    let _ = writeln!(out, "<mujoco model=\"{}\">", r.name);
+    let _ = writeln!(out, "<mujoco model=\"{}\">", name);
     let _ = writeln!(out, "  <compiler angle=\"radian\" autolimits=\"true\"/>");
     let _ = writeln!(out, "  <option timestep=\"{}\" integrator=\"implicitfast\"/>", num(s.timestep_s));
     let _ = writeln!(out, "  <default>");
@@ -468,98 +484,95 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
         "    <geom name=\"floor\" type=\"plane\" size=\"0 0 0.05\" contype=\"1\" conaffinity=\"0\" rgba=\"0.55 0.6 0.55 1\"/>"
     );
 
-    // Each body: inertial, shapes, sites, then its children.
-    struct Ctx<'a> {
-        urdf: &'a urdf_rs::Robot,
-        links: &'a BTreeMap<&'a str, &'a urdf_rs::Link>,
-        shapes: &'a [Shape],
-        path: &'a Path,
-        trunk: &'a str,
-    }
-    fn body(out: &mut String, ctx: &Ctx, link: &str, side: Option<bool>, depth: usize) -> Result<()> {
-        let pad = "  ".repeat(depth);
-        let l = ctx.links.get(link).ok_or_else(|| urdf_error(ctx.path, format!("no link '{link}'")))?;
-        let i = &l.inertial;
+    out
+}
+
+/// What building a body needs.
+struct Ctx<'a> {
+    urdf: &'a urdf_rs::Robot,
+    links: &'a BTreeMap<&'a str, &'a urdf_rs::Link>,
+    shapes: &'a [Shape],
+    path: &'a Path,
+    trunk: &'a str,
+}
+/// One body: its inertial, shapes and sites, then its children.
+fn body(out: &mut String, ctx: &Ctx, link: &str, side: Option<bool>, depth: usize) -> Result<()> {
+    let pad = "  ".repeat(depth);
+    let l = ctx.links.get(link).ok_or_else(|| urdf_error(ctx.path, format!("no link '{link}'")))?;
+    let i = &l.inertial;
+    let _ = writeln!(
+        out,
+        "{pad}<inertial pos=\"{}\" mass=\"{}\" fullinertia=\"{} {} {} {} {} {}\"/>",
+        vec3(*i.origin.xyz),
+        num(i.mass.value),
+        num(i.inertia.ixx),
+        num(i.inertia.iyy),
+        num(i.inertia.izz),
+        num(i.inertia.ixy),
+        num(i.inertia.ixz),
+        num(i.inertia.iyz)
+    );
+    for s in ctx.shapes.iter().filter(|s| s.link == link) {
+        let (contype, conaffinity) = contact_bits(s.contact, side);
+        let sole = !s.carries_mass;
+        let size = s.size_m.map(|v| v / 2.0);
         let _ = writeln!(
             out,
-            "{pad}<inertial pos=\"{}\" mass=\"{}\" fullinertia=\"{} {} {} {} {} {}\"/>",
-            vec3(*i.origin.xyz),
-            num(i.mass.value),
-            num(i.inertia.ixx),
-            num(i.inertia.iyy),
-            num(i.inertia.izz),
-            num(i.inertia.ixy),
-            num(i.inertia.ixz),
-            num(i.inertia.iyz)
+            "{pad}<geom name=\"{}\" type=\"box\" size=\"{}\" pos=\"{}\" contype=\"{contype}\" conaffinity=\"{conaffinity}\"{}/>",
+            s.name,
+            vec3(size),
+            vec3(s.centre_m),
+            if sole { " condim=\"4\" rgba=\"0.2 0.2 0.25 1\"" } else { "" }
         );
-        for s in ctx.shapes.iter().filter(|s| s.link == link) {
-            let (contype, conaffinity) = contact_bits(s.contact, side);
-            let sole = !s.carries_mass;
-            let size = s.size_m.map(|v| v / 2.0);
+        if sole {
+            // The touch sensor's volume: the sole and a millimetre below it.
+            let side_name = s.name.trim_end_matches("_sole");
             let _ = writeln!(
                 out,
-                "{pad}<geom name=\"{}\" type=\"box\" size=\"{}\" pos=\"{}\" contype=\"{contype}\" conaffinity=\"{conaffinity}\"{}/>",
-                s.name,
-                vec3(size),
-                vec3(s.centre_m),
-                if sole { " condim=\"4\" rgba=\"0.2 0.2 0.25 1\"" } else { "" }
+                "{pad}<site name=\"{side_name}_touch\" type=\"box\" size=\"{}\" pos=\"{}\" rgba=\"0 0 0 0\"/>",
+                vec3([size[0] + 0.001, size[1] + 0.001, size[2] + 0.001]),
+                vec3(s.centre_m)
             );
-            if sole {
-                // The touch sensor's volume: the sole and a millimetre below it.
-                let side_name = s.name.trim_end_matches("_sole");
-                let _ = writeln!(
-                    out,
-                    "{pad}<site name=\"{side_name}_touch\" type=\"box\" size=\"{}\" pos=\"{}\" rgba=\"0 0 0 0\"/>",
-                    vec3([size[0] + 0.001, size[1] + 0.001, size[2] + 0.001]),
-                    vec3(s.centre_m)
-                );
-            }
         }
-        if link == ctx.trunk {
-            let centre = ctx.shapes.iter().find(|s| s.link == link && s.carries_mass).map_or([0.0; 3], |s| s.centre_m);
-            let _ = writeln!(out, "{pad}<site name=\"imu\" pos=\"{}\" size=\"0.005\"/>", vec3(centre));
-        }
-        for j in children_of(ctx.urdf, link) {
-            let side = side.or(if j.name.starts_with("lleg_") {
-                Some(true)
-            } else if j.name.starts_with("rleg_") {
-                Some(false)
-            } else {
-                None
-            });
-            let rpy = *j.origin.rpy;
-            let q = UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]);
-            let quat = if rpy == [0.0; 3] {
-                String::new()
-            } else {
-                format!(" quat=\"{} {} {} {}\"", num(q.w), num(q.i), num(q.j), num(q.k))
-            };
-            let _ = writeln!(out, "{pad}<body name=\"{}\" pos=\"{}\"{quat}>", j.child.link, vec3(*j.origin.xyz));
-            if j.joint_type == urdf_rs::JointType::Revolute {
-                let _ = writeln!(
-                    out,
-                    "{pad}  <joint name=\"{}\" axis=\"{}\" range=\"{} {}\"/>",
-                    j.name,
-                    vec3(*j.axis.xyz),
-                    num(j.limit.lower),
-                    num(j.limit.upper)
-                );
-            }
-            body(out, ctx, &j.child.link, side, depth + 1)?;
-            let _ = writeln!(out, "{pad}</body>");
-        }
-        Ok(())
     }
-    let ctx = Ctx { urdf: &r, links: &links, shapes, path, trunk: root };
-    for l in &r.links {
-        shapes_of(shapes, &l.name, path)?;
+    if link == ctx.trunk {
+        let centre = ctx.shapes.iter().find(|s| s.link == link && s.carries_mass).map_or([0.0; 3], |s| s.centre_m);
+        let _ = writeln!(out, "{pad}<site name=\"imu\" pos=\"{}\" size=\"0.005\"/>", vec3(centre));
     }
-    let _ = writeln!(out, "    <body name=\"{root}\" pos=\"0 0 {}\">", num(height));
-    let _ = writeln!(out, "      <freejoint name=\"root\"/>");
-    body(&mut out, &ctx, root, None, 3)?;
-    let _ = writeln!(out, "    </body>");
-    let _ = writeln!(out, "  </worldbody>");
+    for j in children_of(ctx.urdf, link) {
+        let side = side.or(if j.name.starts_with("lleg_") {
+            Some(true)
+        } else if j.name.starts_with("rleg_") {
+            Some(false)
+        } else {
+            None
+        });
+        let rpy = *j.origin.rpy;
+        let q = UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+        let quat = if rpy == [0.0; 3] {
+            String::new()
+        } else {
+            format!(" quat=\"{} {} {} {}\"", num(q.w), num(q.i), num(q.j), num(q.k))
+        };
+        let _ = writeln!(out, "{pad}<body name=\"{}\" pos=\"{}\"{quat}>", j.child.link, vec3(*j.origin.xyz));
+        if j.joint_type == urdf_rs::JointType::Revolute {
+            let _ = writeln!(
+                out,
+                "{pad}  <joint name=\"{}\" axis=\"{}\" range=\"{} {}\"/>",
+                j.name,
+                vec3(*j.axis.xyz),
+                num(j.limit.lower),
+                num(j.limit.upper)
+            );
+        }
+        body(out, ctx, &j.child.link, side, depth + 1)?;
+        let _ = writeln!(out, "{pad}</body>");
+    }
+    Ok(())
+}
 
+/// The position servos and the sensors (IMU, sole touch).
+fn mjcf_actuators_and_sensors(out: &mut String, r: &urdf_rs::Robot, shapes: &[Shape]) {
     let _ = writeln!(out, "  <actuator>");
     for j in r.joints.iter().filter(|j| j.joint_type == urdf_rs::JointType::Revolute) {
         let _ = writeln!(
@@ -581,8 +594,10 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
         let _ = writeln!(out, "    <touch name=\"{side_name}_touch\" site=\"{side_name}_touch\"/>");
     }
     let _ = writeln!(out, "  </sensor>");
+}
 
-    // The keyframe: qpos in body order (the depth-first order above), ctrl in actuator order.
+/// The `home` keyframe: qpos in body order (depth first), ctrl in actuator order.
+fn mjcf_keyframe(out: &mut String, r: &urdf_rs::Robot, robot: &Robot, root: &str, home: &[f64], height: f64) {
     let mut order = Vec::new();
     fn dfs<'a>(r: &'a urdf_rs::Robot, link: &str, order: &mut Vec<&'a str>) {
         for j in children_of(r, link) {
@@ -592,7 +607,7 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
             dfs(r, &j.child.link, order);
         }
     }
-    dfs(&r, root, &mut order);
+    dfs(r, root, &mut order);
     let angle = |name: &str| robot.joints.iter().position(|j| j.name == name).map_or(0.0, |k| home[k]);
     let qpos: Vec<String> = order.iter().map(|n| num(angle(n))).collect();
     let ctrl: Vec<String> =
@@ -606,8 +621,6 @@ pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) 
         ctrl.join(" ")
     );
     let _ = writeln!(out, "  </keyframe>");
-    out.push_str("</mujoco>\n");
-    Ok(out)
 }
 
 /// The derivation as a Markdown table (each link's mass, box, density, centre

@@ -458,8 +458,8 @@ fn support_corners(ankles: &[[f64; 3]; 2], support: Support) -> Vec<[f64; 2]> {
     out
 }
 
-/// Plans a walk of `robot` (its URDF `urdf` gives the masses) as `p` asks.
-pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan> {
+/// Checks a walk's parameters.
+fn check_params(p: &WalkParams) -> Result<()> {
     let bad = |what: String| Err(Error::Input(what));
     if !(p.stride_period_s > 0.1 && p.stride_period_s < 10.0) {
         return bad(format!("stride period {} s: expected 0.1–10 s", p.stride_period_s));
@@ -485,6 +485,57 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
             return bad(format!("{name} {v}: expected a finite value in 0–10"));
         }
     }
+    Ok(())
+}
+
+/// The multi-body ZMP of every frame (every link's centre of mass,
+/// accelerations by central differences) and its margin to the support polygon.
+fn multibody_zmp(
+    robot: &Robot,
+    mass: &MassModel,
+    names: &[String],
+    q_all: &[f64],
+    trunk: &[[f64; 3]],
+    steps: &Footsteps,
+    dt: f64,
+) -> Result<(Vec<[f64; 2]>, Vec<f64>)> {
+    let n = trunk.len();
+    let mut pts = Vec::with_capacity(robot.joints.len() + 1);
+    let mut link_paths: Vec<Vec<(f64, Vector3<f64>)>> = Vec::with_capacity(n);
+    for f in 0..n {
+        let qf = &q_all[f * names.len()..(f + 1) * names.len()];
+        mass.points(&robot.link_poses(names, qf)?, &mut pts);
+        let t = Vector3::from(trunk[f]);
+        link_paths.push(pts.iter().map(|(m, c)| (*m, c + t)).collect());
+    }
+    let mut zmp = Vec::with_capacity(n);
+    let mut margin = Vec::with_capacity(n);
+    for f in 0..n {
+        let (a, b) = (f.saturating_sub(1), (f + 1).min(n - 1));
+        let (mut num_x, mut num_y, mut den) = (0.0, 0.0, 0.0);
+        for (i, (m, c)) in link_paths[f].iter().enumerate() {
+            let acc = if b > a && f > 0 && f + 1 < n {
+                (link_paths[b][i].1 - 2.0 * c + link_paths[a][i].1) / (dt * dt)
+            } else {
+                Vector3::zeros()
+            };
+            let w = m * (acc.z + G_M_S2);
+            num_x += w * c.x - m * acc.x * c.z;
+            num_y += w * c.y - m * acc.y * c.z;
+            den += w;
+        }
+        let z = [num_x / den, num_y / den];
+        zmp.push(z);
+        let hull = convex_hull(&support_corners(&steps.ankles[f], steps.support[f]));
+        margin.push(polygon_margin(&hull, z));
+    }
+    Ok((zmp, margin))
+}
+
+/// Plans a walk of `robot` (its URDF `urdf` gives the masses) as `p` asks.
+pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan> {
+    check_params(p)?;
+    let bad = |what: String| Err(Error::Input(what));
     let names: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
     let arms: Vec<(usize, &Vec<f64>)> = p
         .arm_swing
@@ -580,35 +631,7 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
         com.push([t.x + offset.x, t.y + offset.y, t.z + offset.z]);
     }
 
-    // The multi-body ZMP: every link's centre of mass, accelerations by central differences.
-    let mut link_paths: Vec<Vec<(f64, Vector3<f64>)>> = Vec::with_capacity(n);
-    for f in 0..n {
-        let qf = &q_all[f * names.len()..(f + 1) * names.len()];
-        mass.points(&robot.link_poses(&names, qf)?, &mut pts);
-        let t = Vector3::from(trunk[f]);
-        link_paths.push(pts.iter().map(|(m, c)| (*m, c + t)).collect());
-    }
-    let mut zmp = Vec::with_capacity(n);
-    let mut margin = Vec::with_capacity(n);
-    for f in 0..n {
-        let (a, b) = (f.saturating_sub(1), (f + 1).min(n - 1));
-        let (mut num_x, mut num_y, mut den) = (0.0, 0.0, 0.0);
-        for (i, (m, c)) in link_paths[f].iter().enumerate() {
-            let acc = if b > a && f > 0 && f + 1 < n {
-                (link_paths[b][i].1 - 2.0 * c + link_paths[a][i].1) / (dt * dt)
-            } else {
-                Vector3::zeros()
-            };
-            let w = m * (acc.z + G_M_S2);
-            num_x += w * c.x - m * acc.x * c.z;
-            num_y += w * c.y - m * acc.y * c.z;
-            den += w;
-        }
-        let z = [num_x / den, num_y / den];
-        zmp.push(z);
-        let hull = convex_hull(&support_corners(&steps.ankles[f], steps.support[f]));
-        margin.push(polygon_margin(&hull, z));
-    }
+    let (zmp, margin) = multibody_zmp(robot, mass, &names, &q_all, &trunk, &steps, dt)?;
     let steady_stride = match steps.left_strikes.as_slice() {
         [.., a, b, _] => (*a, *b),
         [a, b] => (*a, *b),

@@ -315,16 +315,14 @@ impl PushSection {
 }
 
 impl ExperimentSection {
+    /// The E6 test, if this is one.
+    pub fn coupling(&self) -> Option<&CouplingTestSection> {
+        if let ExperimentTest::Coupling(k) = &self.test { Some(k) } else { None }
+    }
+
     /// Bounds every count and duration of the test protocol: (field, message) on failure.
     fn check(&self) -> std::result::Result<(), (String, String)> {
         let fail = |f: &str, m: String| Err((format!("experiment.{f}"), m));
-        let secs = |f: &str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err((format!("experiment.{f}"), format!("{v}; expected {lo} to {hi} s")))
-            }
-        };
         if !PROTOCOLS.contains(&self.protocol.as_str()) {
             return fail("protocol", format!("'{}'; valid: {}", self.protocol, PROTOCOLS.join(", ")));
         }
@@ -334,43 +332,7 @@ impl ExperimentSection {
         if !(1..=1000).contains(&self.quick_seeds) {
             return fail("quick_seeds", format!("{}; expected 1 to 1000", self.quick_seeds));
         }
-        const DAY_S: f64 = 86_400.0;
-        if let Some(st) = &self.stability {
-            secs("stability.long_run_s", st.long_run_s, 1.0, DAY_S)?;
-            secs("stability.quick_long_run_s", st.quick_long_run_s, 1.0, DAY_S)?;
-            if !(1..=MAX_TRAINING_SAMPLES).contains(&st.first_samples) {
-                return fail("stability.first_samples", format!("{}; expected 1 to 2000000", st.first_samples));
-            }
-            st.push.check().map_err(|m| ("experiment.stability.push".to_owned(), m))?;
-        }
-        if let Some(f) = &self.frequency {
-            if f.plateaus.is_empty() || f.plateaus.len() > 1000 || f.plateaus.iter().any(|v| !v.is_finite()) {
-                return fail("frequency.plateaus", "needs 1 to 1000 finite values".into());
-            }
-            secs("frequency.hold_s", f.hold_s, 0.0, 3600.0)?;
-            secs("frequency.ramp_s", f.ramp_s, 0.0, 3600.0)?;
-            if f.figure.len() > 1000 || f.figure.iter().flatten().any(|v| !v.is_finite() || v.abs() > DAY_S) {
-                return fail("frequency.figure", "needs at most 1000 finite [time_s, value] knots".into());
-            }
-        }
-        if let Some(g) = &self.gaits {
-            secs("gaits.run_s", g.run_s, 1.0, DAY_S)?;
-            secs("gaits.ramp_s", g.ramp_s, 0.0, 3600.0)?;
-            for (k, t) in g.switch_at_s.iter().enumerate() {
-                secs(&format!("gaits.switch_at_s[{k}]"), *t, 0.0, g.run_s)?;
-            }
-            if !(g.threshold_sd.is_finite() && g.threshold_sd > 0.0 && g.threshold_sd <= 100.0) {
-                return fail("gaits.threshold_sd", format!("{}; expected above 0 and at most 100", g.threshold_sd));
-            }
-        }
-        if let Some(c) = &self.coupling {
-            secs("coupling.run_s", c.run_s, 1.0, DAY_S)?;
-            secs("coupling.quick_run_s", c.quick_run_s, 1.0, DAY_S)?;
-            if !(1..=20_000).contains(&c.quick_neurons) {
-                return fail("coupling.quick_neurons", format!("{}; expected 1 to 20000", c.quick_neurons));
-            }
-        }
-        Ok(())
+        self.test.check()
     }
 }
 
@@ -413,17 +375,72 @@ pub struct ExperimentSection {
     /// Seeds in a quick run.
     #[serde(default = "default_quick_seeds")]
     pub quick_seeds: u64,
-    /// E1–E3: long free run and perturbation.
-    pub stability: Option<StabilitySection>,
-    /// E4: frequency modulation.
-    pub frequency: Option<FrequencySection>,
-    /// E5: gait switching.
-    pub gaits: Option<GaitsSection>,
-    /// E6: phase coupling of many outputs.
-    pub coupling: Option<CouplingTestSection>,
+    /// The test the experiment runs: one table named by its kind.
+    pub test: ExperimentTest,
 }
 
-/// `[experiment.stability]`.
+/// `[experiment.test.KIND]`: the test an experiment runs, one kind per
+/// configuration. A new kind is a variant here, its section type and its
+/// module in `experiment`; the compiler points to every place that
+/// dispatches over the kinds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum ExperimentTest {
+    /// E1–E3: long free run and perturbation.
+    Stability(StabilitySection),
+    /// E4: frequency modulation.
+    Frequency(FrequencySection),
+    /// E5: gait switching.
+    Gaits(GaitsSection),
+    /// E6: phase coupling of many outputs.
+    Coupling(CouplingTestSection),
+}
+
+impl ExperimentTest {
+    /// The kind's name, as the file writes it (`stability`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ExperimentTest::Stability(_) => "stability",
+            ExperimentTest::Frequency(_) => "frequency",
+            ExperimentTest::Gaits(_) => "gaits",
+            ExperimentTest::Coupling(_) => "coupling",
+        }
+    }
+
+    /// Checks the kind's settings; an error names the key below `experiment.test.KIND`.
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        match self {
+            ExperimentTest::Stability(t) => t.check(),
+            ExperimentTest::Frequency(t) => t.check(),
+            ExperimentTest::Gaits(t) => t.check(),
+            ExperimentTest::Coupling(t) => t.check(),
+        }
+        .map_err(|(k, m)| (format!("experiment.test.{}.{k}", self.kind()), m))
+    }
+
+    /// The robot the test shows its run on, if any.
+    fn robot_mut(&mut self) -> Option<&mut RobotSection> {
+        match self {
+            ExperimentTest::Stability(_) | ExperimentTest::Frequency(_) => None,
+            ExperimentTest::Gaits(t) => t.robot.as_mut(),
+            ExperimentTest::Coupling(t) => t.robot.as_mut(),
+        }
+    }
+}
+
+/// The longest run a test asks for, seconds (a day).
+const DAY_S: f64 = 86_400.0;
+
+/// `v` within `lo..=hi` seconds, or the error for key `k`.
+fn seconds_within(k: &str, v: f64, lo: f64, hi: f64) -> std::result::Result<(), (String, String)> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err((k.to_owned(), format!("{v}; expected {lo} to {hi} s")))
+    }
+}
+
+/// `[experiment.test.stability]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StabilitySection {
@@ -441,7 +458,18 @@ pub struct StabilitySection {
     pub push: PushSection,
 }
 
-/// `[experiment.frequency]`.
+impl StabilitySection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        seconds_within("long_run_s", self.long_run_s, 1.0, DAY_S)?;
+        seconds_within("quick_long_run_s", self.quick_long_run_s, 1.0, DAY_S)?;
+        if !(1..=MAX_TRAINING_SAMPLES).contains(&self.first_samples) {
+            return Err(("first_samples".into(), format!("{}; expected 1 to 2000000", self.first_samples)));
+        }
+        self.push.check().map_err(|m| ("push".to_owned(), m))
+    }
+}
+
+/// `[experiment.test.frequency]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FrequencySection {
@@ -457,7 +485,21 @@ pub struct FrequencySection {
     pub figure: Vec<[f64; 2]>,
 }
 
-/// `[experiment.gaits]`.
+impl FrequencySection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        if self.plateaus.is_empty() || self.plateaus.len() > 1000 || self.plateaus.iter().any(|v| !v.is_finite()) {
+            return Err(("plateaus".into(), "needs 1 to 1000 finite values".into()));
+        }
+        seconds_within("hold_s", self.hold_s, 0.0, 3600.0)?;
+        seconds_within("ramp_s", self.ramp_s, 0.0, 3600.0)?;
+        if self.figure.len() > 1000 || self.figure.iter().flatten().any(|v| !v.is_finite() || v.abs() > DAY_S) {
+            return Err(("figure".into(), "needs at most 1000 finite [time_s, value] knots".into()));
+        }
+        Ok(())
+    }
+}
+
+/// `[experiment.test.gaits]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GaitsSection {
@@ -476,7 +518,21 @@ pub struct GaitsSection {
     pub robot: Option<RobotSection>,
 }
 
-/// `[experiment.coupling]`.
+impl GaitsSection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        seconds_within("run_s", self.run_s, 1.0, DAY_S)?;
+        seconds_within("ramp_s", self.ramp_s, 0.0, 3600.0)?;
+        for (k, t) in self.switch_at_s.iter().enumerate() {
+            seconds_within(&format!("switch_at_s[{k}]"), *t, 0.0, self.run_s)?;
+        }
+        if !(self.threshold_sd.is_finite() && self.threshold_sd > 0.0 && self.threshold_sd <= 100.0) {
+            return Err(("threshold_sd".into(), format!("{}; expected above 0 and at most 100", self.threshold_sd)));
+        }
+        Ok(())
+    }
+}
+
+/// `[experiment.test.coupling]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CouplingTestSection {
@@ -492,6 +548,17 @@ pub struct CouplingTestSection {
     pub portraits: Vec<String>,
     /// The robot the generated joints are mapped onto (optional).
     pub robot: Option<RobotSection>,
+}
+
+impl CouplingTestSection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        seconds_within("run_s", self.run_s, 1.0, DAY_S)?;
+        seconds_within("quick_run_s", self.quick_run_s, 1.0, DAY_S)?;
+        if !(1..=20_000).contains(&self.quick_neurons) {
+            return Err(("quick_neurons".into(), format!("{}; expected 1 to 20000", self.quick_neurons)));
+        }
+        Ok(())
+    }
 }
 
 /// A robot description and the channel map onto its joints.
@@ -694,16 +761,9 @@ impl Config {
         Ok(c)
     }
 
-    /// The robot sections of the experiment (E5's and E6's), for their paths.
+    /// The robot section of the experiment's test (E5's and E6's), for its paths.
     fn robots_mut(&mut self) -> impl Iterator<Item = &mut RobotSection> {
-        let e = self.experiment.as_mut();
-        let (gaits, coupling) = match e {
-            Some(e) => {
-                (e.gaits.as_mut().and_then(|g| g.robot.as_mut()), e.coupling.as_mut().and_then(|k| k.robot.as_mut()))
-            }
-            None => (None, None),
-        };
-        gaits.into_iter().chain(coupling)
+        self.experiment.as_mut().and_then(|e| e.test.robot_mut()).into_iter()
     }
 
     /// The configuration as TOML for a file in `dir`: every path is written
@@ -735,90 +795,122 @@ impl Config {
     }
 
     /// Checks what serde cannot: lengths that must agree, ranges, names.
+    /// Every size taken from the file is bounded here, before any data is
+    /// read or allocated.
     fn check(&self, file: &Path) -> Result<()> {
-        let bad = |field: &str, message: String| Error::Config {
-            file: file.to_owned(),
-            line: None,
-            field: field.to_owned(),
-            message,
-        };
-        let d = &self.data;
+        let bad =
+            |(field, message): (String, String)| Error::Config { file: file.to_owned(), line: None, field, message };
+        self.data.check().map_err(bad)?;
+        self.training.check_sizes().map_err(bad)?;
+        self.data.check_tempo().map_err(bad)?;
+        if let Some(name) = &self.reservoir.tempo_input
+            && !self.data.controls.contains(name)
+        {
+            return Err(bad((
+                "reservoir.tempo_input".into(),
+                format!("'{name}' is not a control input (data.controls: [{}])", self.data.controls.join(", ")),
+            )));
+        }
+        self.training.check(self.data.tempo.is_some()).map_err(bad)?;
+        if let Some(e) = &self.experiment {
+            e.check().map_err(bad)?;
+        }
+        Ok(())
+    }
+}
+
+/// A check's failure: the key as the file writes it, and what is wrong.
+type Failure = (String, String);
+
+fn fail<T>(field: &str, message: impl Into<String>) -> std::result::Result<T, Failure> {
+    Err((field.to_owned(), message.into()))
+}
+
+/// `v` within `lo..=hi`, or the failure of key `field`.
+fn count_within(field: &str, v: usize, lo: usize, hi: usize) -> std::result::Result<(), Failure> {
+    if (lo..=hi).contains(&v) { Ok(()) } else { fail(field, format!("{v}; expected {lo} to {hi}")) }
+}
+
+impl DataSection {
+    /// The channels, segments, rates, controls and sizes of `[data]`.
+    fn check(&self) -> std::result::Result<(), Failure> {
+        let d = self;
         if d.channels.is_empty() {
-            return Err(bad("data.channels", "is empty; name at least one channel such as \"lfemur.rx\"".into()));
+            return fail("data.channels", "is empty; name at least one channel such as \"lfemur.rx\"");
         }
         if d.segments.is_empty() {
-            return Err(bad("data.segments", "needs at least one [[data.segments]] with a motion file".into()));
+            return fail("data.segments", "needs at least one [[data.segments]] with a motion file");
         }
-        if !(d.rate_hz.is_finite()
-            && (cpg_reservoir::MIN_SAMPLE_RATE_HZ..=cpg_reservoir::MAX_SAMPLE_RATE_HZ).contains(&d.rate_hz))
-        {
-            return Err(bad(
-                "data.rate_hz",
-                format!(
-                    "{}; expected {} to {} Hz",
-                    d.rate_hz,
-                    cpg_reservoir::MIN_SAMPLE_RATE_HZ,
-                    cpg_reservoir::MAX_SAMPLE_RATE_HZ
-                ),
-            ));
+        let (lo_hz, hi_hz) = (cpg_reservoir::MIN_SAMPLE_RATE_HZ, cpg_reservoir::MAX_SAMPLE_RATE_HZ);
+        if !(d.rate_hz.is_finite() && (lo_hz..=hi_hz).contains(&d.rate_hz)) {
+            return fail("data.rate_hz", format!("{}; expected {lo_hz} to {hi_hz} Hz", d.rate_hz));
         }
         for (k, name) in d.controls.iter().enumerate() {
             if name.is_empty() || name.chars().any(|c| c == ',' || c == '=' || c.is_whitespace() || c.is_control()) {
-                return Err(bad(
+                return fail(
                     &format!("data.controls[{k}]"),
                     format!("{name:?}: a control name is a non-empty word without commas, '=' or spaces"),
-                ));
+                );
             }
             if d.controls[..k].contains(name) {
-                return Err(bad(&format!("data.controls[{k}]"), format!("'{name}' is named twice")));
+                return fail(&format!("data.controls[{k}]"), format!("'{name}' is named twice"));
             }
         }
         if let Some(u) = d.bvh_unit_mm
             && !(u.is_finite() && (1e-6..=1e6).contains(&u))
         {
-            return Err(bad("data.bvh_unit_mm", format!("{u}; expected 1e-6 to 1e6 mm per BVH length unit")));
+            return fail("data.bvh_unit_mm", format!("{u}; expected 1e-6 to 1e6 mm per BVH length unit"));
         }
-        let tempo = d.tempo.as_ref();
+        d.check_segment_controls()?;
+        let [lo, hi] = d.period_s;
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi && hi <= 60.0) {
+            return fail("data.period_s", format!("[{lo}, {hi}]; expected 0 < shortest < longest <= 60 s"));
+        }
+        if !(d.morph_s.is_finite() && (0.0..=10.0).contains(&d.morph_s)) {
+            return fail("data.morph_s", format!("{}; expected 0 to 10 s", d.morph_s));
+        }
+        if !(d.max_seam_excess.is_finite() && d.max_seam_excess >= 0.0) {
+            return fail("data.max_seam_excess", format!("{}; expected a number >= 0", d.max_seam_excess));
+        }
+        d.check_sizes()
+    }
+
+    /// Each segment's control values: one per control input (none with a tempo), finite.
+    fn check_segment_controls(&self) -> std::result::Result<(), Failure> {
+        let d = self;
+        let tempo = d.tempo.is_some();
         for (k, s) in d.segments.iter().enumerate() {
-            let expected = if tempo.is_some() { 0 } else { d.controls.len() };
+            let expected = if tempo { 0 } else { d.controls.len() };
             if s.controls.len() != expected {
-                return Err(bad(
+                return fail(
                     &format!("data.segments[{k}].controls"),
                     format!(
                         "has {} values; {} ({})",
                         s.controls.len(),
-                        if tempo.is_some() {
+                        if tempo {
                             "with [data.tempo] the control comes from the tempo, so give none".to_owned()
                         } else {
                             format!("[data] controls names {}", d.controls.len())
                         },
                         d.controls.join(", ")
                     ),
-                ));
+                );
             }
             if let Some(k2) = s.controls.iter().position(|v| !v.is_finite()) {
-                return Err(bad(&format!("data.segments[{k}].controls[{k2}]"), "is not a finite number".into()));
+                return fail(&format!("data.segments[{k}].controls[{k2}]"), "is not a finite number");
             }
         }
-        let [lo, hi] = d.period_s;
-        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi && hi <= 60.0) {
-            return Err(bad("data.period_s", format!("[{lo}, {hi}]; expected 0 < shortest < longest <= 60 s")));
-        }
-        if !(d.morph_s.is_finite() && (0.0..=10.0).contains(&d.morph_s)) {
-            return Err(bad("data.morph_s", format!("{}; expected 0 to 10 s", d.morph_s)));
-        }
-        if !(d.max_seam_excess.is_finite() && d.max_seam_excess >= 0.0) {
-            return Err(bad("data.max_seam_excess", format!("{}; expected a number >= 0", d.max_seam_excess)));
-        }
-        // Every size taken from the file is bounded here, before any data is read or allocated.
+        Ok(())
+    }
+
+    /// The counts and the training sequence's length, within [`MAX_TRAINING_SAMPLES`].
+    fn check_sizes(&self) -> std::result::Result<(), Failure> {
+        let d = self;
         let max_samples = MAX_TRAINING_SAMPLES;
-        let within = |field: &str, v: usize, lo: usize, hi: usize| {
-            if (lo..=hi).contains(&v) { Ok(()) } else { Err(bad(field, format!("{v}; expected {lo} to {hi}"))) }
-        };
-        within("data.repeats", d.repeats, 1, 10_000)?;
-        within("data.loop_cycles", d.loop_cycles, 0, 100)?;
-        within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
-        within("data.segments", d.segments.len(), 1, MAX_SEGMENTS)?;
+        count_within("data.repeats", d.repeats, 1, 10_000)?;
+        count_within("data.loop_cycles", d.loop_cycles, 0, 100)?;
+        count_within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
+        count_within("data.segments", d.segments.len(), 1, MAX_SEGMENTS)?;
         if d.loop_cycles > 0 && d.tempo.is_none() {
             // The training sequence's length is known from the file alone: bounded before any motion is read.
             let blocks = d.segments.len().saturating_mul(d.repeats);
@@ -827,7 +919,7 @@ impl Config {
                 .saturating_mul(d.samples_per_segment)
                 .saturating_add(blocks.saturating_sub(1).saturating_mul(morph));
             if total > max_samples {
-                return Err(bad(
+                return fail(
                     "data.samples_per_segment",
                     format!(
                         "the training sequence would have {total} samples ({} segments × {} repeats × {} samples, plus blends); at most {max_samples}",
@@ -835,112 +927,119 @@ impl Config {
                         d.repeats,
                         d.samples_per_segment
                     ),
-                ));
+                );
             }
         }
         if let Some(t) = &d.tempo {
-            within("data.tempo.samples", t.samples, 1, max_samples)?;
-            within("data.tempo.knot_every", t.knot_every, 1, max_samples)?;
+            count_within("data.tempo.samples", t.samples, 1, max_samples)?;
+            count_within("data.tempo.knot_every", t.knot_every, 1, max_samples)?;
             if t.teachers.len() > 100 {
-                return Err(bad("data.tempo.teachers", format!("{} rates; at most 100", t.teachers.len())));
+                return fail("data.tempo.teachers", format!("{} rates; at most 100", t.teachers.len()));
             }
         }
-        within("training.washout", self.training.washout, 0, max_samples)?;
-        within("training.validation_samples", self.training.validation_samples, 1, max_samples)?;
-        within("training.noise_draws", self.training.noise_draws, 1, MAX_NOISE_DRAWS)?;
-        if let Some(t) = tempo {
-            if d.controls != [t.control.clone()] {
-                return Err(bad(
-                    "data.tempo.control",
-                    format!("'{}': with a tempo, [data] controls must be exactly [\"{}\"]", t.control, t.control),
-                ));
-            }
-            if d.segments.len() != 1 || d.loop_cycles == 0 {
-                return Err(bad(
-                    "data.tempo",
-                    "plays one segment's loop: give one segment and loop_cycles >= 1".into(),
-                ));
-            }
-            let [a, b] = t.range;
-            if !(a.is_finite() && b.is_finite() && 0.0 < a && a <= b && b <= 100.0) {
-                return Err(bad("data.tempo.range", format!("[{a}, {b}]; expected 0 < low <= high <= 100")));
-            }
-            if t.teachers.is_empty() || t.teachers.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(bad("data.tempo.teachers", "needs one or more rates > 0".into()));
-            }
-            if t.knot_every == 0 {
-                return Err(bad("data.tempo.knot_every", "must be at least 1".into()));
-            }
+        Ok(())
+    }
+
+    /// `[data.tempo]` against the rest of `[data]`.
+    fn check_tempo(&self) -> std::result::Result<(), Failure> {
+        let d = self;
+        let Some(t) = &d.tempo else { return Ok(()) };
+        if d.controls != [t.control.clone()] {
+            return fail(
+                "data.tempo.control",
+                format!("'{}': with a tempo, [data] controls must be exactly [\"{}\"]", t.control, t.control),
+            );
         }
-        if let Some(name) = &self.reservoir.tempo_input
-            && !d.controls.contains(name)
-        {
-            return Err(bad(
-                "reservoir.tempo_input",
-                format!("'{name}' is not a control input (data.controls: [{}])", d.controls.join(", ")),
-            ));
+        if d.segments.len() != 1 || d.loop_cycles == 0 {
+            return fail("data.tempo", "plays one segment's loop: give one segment and loop_cycles >= 1");
         }
-        let t = &self.training;
+        let [a, b] = t.range;
+        if !(a.is_finite() && b.is_finite() && 0.0 < a && a <= b && b <= 100.0) {
+            return fail("data.tempo.range", format!("[{a}, {b}]; expected 0 < low <= high <= 100"));
+        }
+        if t.teachers.is_empty() || t.teachers.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return fail("data.tempo.teachers", "needs one or more rates > 0");
+        }
+        if t.knot_every == 0 {
+            return fail("data.tempo.knot_every", "must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+impl TrainingSection {
+    /// The counts of `[training]`, within their bounds.
+    fn check_sizes(&self) -> std::result::Result<(), Failure> {
+        count_within("training.washout", self.washout, 0, MAX_TRAINING_SAMPLES)?;
+        count_within("training.validation_samples", self.validation_samples, 1, MAX_TRAINING_SAMPLES)?;
+        count_within("training.noise_draws", self.noise_draws, 1, MAX_NOISE_DRAWS)
+    }
+
+    /// The penalty grid, the score and its settings, the noises; `tempo`:
+    /// the data has a `[data.tempo]`.
+    fn check(&self, tempo: bool) -> std::result::Result<(), Failure> {
+        let t = self;
         let p = t.penalty_log10;
         if !(p.start.is_finite() && p.stop.is_finite() && p.step.is_finite() && p.step > 0.0) {
-            return Err(bad("training.penalty_log10", "needs finite {start, step, stop} with step > 0".into()));
+            return fail("training.penalty_log10", "needs finite {start, step, stop} with step > 0");
         }
         let n_penalties = ((p.start - p.stop).abs() / p.step).floor() + 1.0;
         if n_penalties.is_nan() || n_penalties > MAX_PENALTIES as f64 {
-            return Err(bad(
+            return fail(
                 "training.penalty_log10",
                 format!("gives {n_penalties} penalties; at most {} (use a larger step)", MAX_PENALTIES),
-            ));
+            );
         }
         if !(p.start.abs() <= 300.0 && p.stop.abs() <= 300.0) {
-            return Err(bad("training.penalty_log10", "start and stop must lie within -300 to 300".into()));
+            return fail("training.penalty_log10", "start and stop must lie within -300 to 300");
         }
         match t.score.as_str() {
-            "nmse" => {
-                if t.orbit.is_some() {
-                    return Err(bad("training.orbit", "is used only with score = \"orbit\"".into()));
-                }
-            }
-            "orbit" => {
-                let o = t.orbit.as_ref().ok_or_else(|| {
-                    bad("training.orbit", "score = \"orbit\" needs a [training.orbit] section".into())
-                })?;
-                for (name, v) in [("stay_s", o.stay_s), ("ramp_s", o.ramp_s), ("settle_s", o.settle_s)] {
-                    if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
-                        return Err(bad(&format!("training.orbit.{name}"), format!("{v}; expected 0 to 600 s")));
-                    }
-                }
-                if let Some(r) = &o.rates {
-                    if d.tempo.is_none() {
-                        return Err(bad("training.orbit.rates", "needs [data.tempo] (rates of its loop)".into()));
-                    }
-                    if r.is_empty() || r.len() > 100 || r.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 100.0)) {
-                        return Err(bad("training.orbit.rates", "needs 1 to 100 rates above 0 and at most 100".into()));
-                    }
-                }
-                if o.settle_s >= o.stay_s {
-                    return Err(bad(
-                        "training.orbit.settle_s",
-                        format!("{} leaves nothing to score in a stay of {} s", o.settle_s, o.stay_s),
-                    ));
-                }
-            }
-            other => return Err(bad("training.score", format!("'{other}'; valid: nmse (the paper's), orbit"))),
+            "nmse" if t.orbit.is_some() => return fail("training.orbit", "is used only with score = \"orbit\""),
+            "nmse" => {}
+            "orbit" => match &t.orbit {
+                Some(o) => o.check(tempo)?,
+                None => return fail("training.orbit", "score = \"orbit\" needs a [training.orbit] section"),
+            },
+            other => return fail("training.score", format!("'{other}'; valid: nmse (the paper's), orbit")),
         }
         if !(t.noise_variance.is_finite() && t.noise_variance >= 0.0) {
-            return Err(bad("training.noise_variance", format!("{}; expected a number >= 0", t.noise_variance)));
+            return fail("training.noise_variance", format!("{}; expected a number >= 0", t.noise_variance));
         }
         if !(t.teacher_noise.is_finite() && (0.0..=10.0).contains(&t.teacher_noise)) {
-            return Err(bad("training.teacher_noise", format!("{}; expected 0 to 10", t.teacher_noise)));
+            return fail("training.teacher_noise", format!("{}; expected 0 to 10", t.teacher_noise));
         }
         if !(t.prefer_larger_within.is_finite() && (0.0..=100.0).contains(&t.prefer_larger_within)) {
-            return Err(bad("training.prefer_larger_within", format!("{}; expected 0 to 100", t.prefer_larger_within)));
+            return fail("training.prefer_larger_within", format!("{}; expected 0 to 100", t.prefer_larger_within));
         }
         if let Some(push) = t.orbit.as_ref().and_then(|o| o.push.as_ref()) {
-            push.check().map_err(|m| bad("training.orbit.push", m))?;
+            push.check().map_err(|m| ("training.orbit.push".to_owned(), m))?;
         }
-        if let Some(e) = &self.experiment {
-            e.check().map_err(|(field, m)| bad(&field, m))?;
+        Ok(())
+    }
+}
+
+impl OrbitSection {
+    /// The stays, ramps and rates of `[training.orbit]`; `tempo`: the data has a `[data.tempo]`.
+    fn check(&self, tempo: bool) -> std::result::Result<(), Failure> {
+        let o = self;
+        for (name, v) in [("stay_s", o.stay_s), ("ramp_s", o.ramp_s), ("settle_s", o.settle_s)] {
+            if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
+                return fail(&format!("training.orbit.{name}"), format!("{v}; expected 0 to 600 s"));
+            }
+        }
+        if let Some(r) = &o.rates {
+            if !tempo {
+                return fail("training.orbit.rates", "needs [data.tempo] (rates of its loop)");
+            }
+            if r.is_empty() || r.len() > 100 || r.iter().any(|v| !(v.is_finite() && *v > 0.0 && *v <= 100.0)) {
+                return fail("training.orbit.rates", "needs 1 to 100 rates above 0 and at most 100");
+            }
+        }
+        if o.settle_s >= o.stay_s {
+            return fail(
+                "training.orbit.settle_s",
+                format!("{} leaves nothing to score in a stay of {} s", o.settle_s, o.stay_s),
+            );
         }
         Ok(())
     }

@@ -145,15 +145,32 @@ fn onsets(on: &[bool], min_off: usize) -> Vec<usize> {
     out
 }
 
+/// What the trials' strides add up to, before the medians and means.
+#[derive(Default)]
+struct Tally {
+    periods: Vec<f64>,
+    duty: f64,
+    duty_n: usize,
+    leg: Vec<f64>,
+    stride_len: Vec<f64>,
+    lift: Vec<f64>,
+    lift_profiles: Vec<Vec<f64>>,
+    advance_profiles: Vec<Vec<f64>>,
+    cycles: Vec<(String, Vec<Vec<f64>>)>,
+}
+
 /// Measures the walk of the trials' forward kinematics (y up, as CMU's skeletons are).
 pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
-    let mut periods = Vec::new();
-    let (mut duty, mut duty_n) = (0.0, 0usize);
-    let (mut leg, mut stride_len, mut lift) = (Vec::new(), Vec::new(), Vec::new());
-    let mut lift_profiles: Vec<Vec<f64>> = Vec::new();
-    let mut advance_profiles: Vec<Vec<f64>> = Vec::new();
-    let mut cycles: Vec<(String, Vec<Vec<f64>>)> = Vec::new();
+    let mut tally = Tally::default();
     for (k, p) in trials.iter().enumerate() {
+        tally.trial(k, p)?;
+    }
+    tally.finish()
+}
+
+impl Tally {
+    /// Trial `k`: each foot's strides and swings, and the joint cycles over each left stride.
+    fn trial(&mut self, k: usize, p: &Positions) -> Result<()> {
         let mut idx = std::collections::BTreeMap::new();
         for name in POINTS.iter().chain(&POINTS_R) {
             let i = p.point_index(name).ok_or_else(|| {
@@ -186,7 +203,7 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
         for (s, (ankle, _, hip, knee)) in feet.iter().enumerate() {
             let c = &on[s];
             let strikes = onsets(c, min_off);
-            leg.push(
+            self.leg.push(
                 norm(sub(t.at(0, knee), t.at(0, hip)))
                     + norm(sub(t.at(0, ankle), t.at(0, knee)))
                     + (0..n).map(|f| dot(t.at(f, ankle), up)).fold(f64::INFINITY, f64::min),
@@ -194,44 +211,55 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
             for w in strikes.windows(2) {
                 let (a, b) = (w[0], w[1]);
                 let on_share = c[a..b].iter().filter(|x| **x).count() as f64 / (b - a) as f64;
-                duty += on_share;
-                duty_n += 1;
+                self.duty += on_share;
+                self.duty_n += 1;
                 if s == 0 {
-                    periods.push((b - a) as f64 * dt);
-                    stride_len.push(dot(sub(root(b), root(a)), forward));
+                    self.periods.push((b - a) as f64 * dt);
+                    self.stride_len.push(dot(sub(root(b), root(a)), forward));
                 }
-                // The swing: the last lift-off before b.
-                let Some(off) = (a..b).rev().find(|&f| c[f]) else { continue };
-                let swing: Vec<usize> = (off + 1..=b).collect();
-                if swing.len() < 4 {
-                    continue;
-                }
-                // The height above the line from lift-off to touch-down: the
-                // heel's rise at push-off is the foot's roll, which a flat
-                // robot foot does not make.
-                let h0: Vec<f64> = swing.iter().map(|&f| dot(t.at(f, ankle), up)).collect();
-                let m = h0.len() - 1;
-                let h: Vec<f64> =
-                    h0.iter().enumerate().map(|(i, v)| v - (h0[0] + (h0[m] - h0[0]) * i as f64 / m as f64)).collect();
-                let peak = h.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                if peak <= 0.0 {
-                    continue;
-                }
-                lift.push(peak);
-                lift_profiles
-                    .push(resample(&h.iter().map(|v| (v / peak).max(0.0)).collect::<Vec<_>>(), PROFILE_SAMPLES));
-                let x: Vec<f64> = swing.iter().map(|&f| dot(t.at(f, ankle), forward)).collect();
-                let span = x[x.len() - 1] - x[0];
-                if span > 0.0 {
-                    advance_profiles.push(resample(
-                        &x.iter().map(|v| ((v - x[0]) / span).clamp(0.0, 1.0)).collect::<Vec<_>>(),
-                        PROFILE_SAMPLES,
-                    ));
-                }
+                self.swing(&t, ankle, c, (a, b), forward);
             }
         }
-        // Joint cycles over each left stride.
-        let strikes = onsets(&on[0], min_off);
+        self.joint_cycles(&t, &onsets(&on[0], min_off), forward);
+        Ok(())
+    }
+
+    /// The swing of `ankle` in the stride `a..b` (the last lift-off before b):
+    /// its lift and the profiles of its height and progress.
+    fn swing(&mut self, t: &Trial<'_>, ankle: &str, c: &[bool], (a, b): (usize, usize), forward: V3) {
+        let up = t.up;
+        let Some(off) = (a..b).rev().find(|&f| c[f]) else { return };
+        let swing: Vec<usize> = (off + 1..=b).collect();
+        if swing.len() < 4 {
+            return;
+        }
+        // The height above the line from lift-off to touch-down: the
+        // heel's rise at push-off is the foot's roll, which a flat
+        // robot foot does not make.
+        let h0: Vec<f64> = swing.iter().map(|&f| dot(t.at(f, ankle), up)).collect();
+        let m = h0.len() - 1;
+        let h: Vec<f64> =
+            h0.iter().enumerate().map(|(i, v)| v - (h0[0] + (h0[m] - h0[0]) * i as f64 / m as f64)).collect();
+        let peak = h.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        if peak <= 0.0 {
+            return;
+        }
+        self.lift.push(peak);
+        self.lift_profiles.push(resample(&h.iter().map(|v| (v / peak).max(0.0)).collect::<Vec<_>>(), PROFILE_SAMPLES));
+        let x: Vec<f64> = swing.iter().map(|&f| dot(t.at(f, ankle), forward)).collect();
+        let span = x[x.len() - 1] - x[0];
+        if span > 0.0 {
+            self.advance_profiles.push(resample(
+                &x.iter().map(|v| ((v - x[0]) / span).clamp(0.0, 1.0)).collect::<Vec<_>>(),
+                PROFILE_SAMPLES,
+            ));
+        }
+    }
+
+    /// Every joint's cycle over each stride between the left touch-downs `strikes`.
+    fn joint_cycles(&mut self, t: &Trial<'_>, strikes: &[usize], forward: V3) {
+        let up = t.up;
+        let cycles = &mut self.cycles;
         for w in strikes.windows(2) {
             let (a, b) = (w[0], w[1]);
             let mut add = |name: String, v: Vec<f64>| match cycles.iter_mut().find(|(n, _)| *n == name) {
@@ -262,29 +290,35 @@ pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
             }
         }
     }
-    if periods.is_empty() || lift_profiles.is_empty() || advance_profiles.is_empty() {
-        return Err(Error::Unusable("no full stride (two left touch-downs with a swing between) in the trials".into()));
+
+    /// The medians and mean profiles.
+    fn finish(mut self) -> Result<HumanWalk> {
+        if self.periods.is_empty() || self.lift_profiles.is_empty() || self.advance_profiles.is_empty() {
+            return Err(Error::Unusable(
+                "no full stride (two left touch-downs with a swing between) in the trials".into(),
+            ));
+        }
+        let median = |v: &mut Vec<f64>| crate::stats::median(v);
+        let mean_profile = |ps: &[Vec<f64>]| -> Vec<f64> {
+            (0..ps[0].len()).map(|i| ps.iter().map(|p| p[i]).sum::<f64>() / ps.len() as f64).collect()
+        };
+        let mut lift_profile = mean_profile(&self.lift_profiles);
+        let peak = lift_profile.iter().cloned().fold(0.0, f64::max);
+        if peak > 0.0 {
+            lift_profile.iter_mut().for_each(|v| *v /= peak);
+        }
+        Ok(HumanWalk {
+            strides: self.periods.len(),
+            stride_period_s: median(&mut self.periods),
+            duty_factor: self.duty / self.duty_n as f64,
+            leg_length_m: median(&mut self.leg),
+            stride_length_m: median(&mut self.stride_len),
+            lift_m: median(&mut self.lift),
+            lift_profile,
+            advance_profile: mean_profile(&self.advance_profiles),
+            cycles_deg: self.cycles.into_iter().map(|(n, list)| (n, mean_profile(&list))).collect(),
+        })
     }
-    let median = |v: &mut Vec<f64>| crate::stats::median(v);
-    let mean_profile = |ps: &[Vec<f64>]| -> Vec<f64> {
-        (0..ps[0].len()).map(|i| ps.iter().map(|p| p[i]).sum::<f64>() / ps.len() as f64).collect()
-    };
-    let mut lift_profile = mean_profile(&lift_profiles);
-    let peak = lift_profile.iter().cloned().fold(0.0, f64::max);
-    if peak > 0.0 {
-        lift_profile.iter_mut().for_each(|v| *v /= peak);
-    }
-    Ok(HumanWalk {
-        strides: periods.len(),
-        stride_period_s: median(&mut periods),
-        duty_factor: duty / duty_n as f64,
-        leg_length_m: median(&mut leg),
-        stride_length_m: median(&mut stride_len),
-        lift_m: median(&mut lift),
-        lift_profile,
-        advance_profile: mean_profile(&advance_profiles),
-        cycles_deg: cycles.into_iter().map(|(n, list)| (n, mean_profile(&list))).collect(),
-    })
 }
 
 /// What the robot's walk asks beyond the human's timing.

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use cpg_lab::Config;
 use cpg_lab::experiment::families::FamiliesConfig;
-use serde_reflection::{ContainerFormat, Format, Samples, Tracer, TracerConfig};
+use serde_reflection::{ContainerFormat, Format, Samples, Tracer, TracerConfig, VariantFormat};
 
 fn doc() -> String {
     std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/config.md")).unwrap()
@@ -19,12 +19,26 @@ fn paths(registry: &BTreeMap<String, ContainerFormat>, root: &str) -> Vec<String
     fn walk(reg: &BTreeMap<String, ContainerFormat>, f: &Format, prefix: &str, out: &mut Vec<String>) {
         match f {
             Format::TypeName(name) => {
-                if let Some(ContainerFormat::Struct(fields)) = reg.get(name) {
-                    for field in fields {
-                        let p = if prefix.is_empty() { field.name.clone() } else { format!("{prefix}.{}", field.name) };
-                        out.push(p.clone());
-                        walk(reg, &field.value, &p, out);
+                match reg.get(name) {
+                    Some(ContainerFormat::Struct(fields)) => {
+                        for field in fields {
+                            let p =
+                                if prefix.is_empty() { field.name.clone() } else { format!("{prefix}.{}", field.name) };
+                            out.push(p.clone());
+                            walk(reg, &field.value, &p, out);
+                        }
                     }
+                    // An externally tagged enum: a table named by the variant.
+                    Some(ContainerFormat::Enum(variants)) => {
+                        for v in variants.values() {
+                            let p = format!("{prefix}.{}", v.name);
+                            out.push(p.clone());
+                            if let VariantFormat::NewType(inner) = &v.value {
+                                walk(reg, inner, &p, out);
+                            }
+                        }
+                    }
+                    _ => {}
                 }
             }
             Format::Option(inner) | Format::Seq(inner) => walk(reg, inner, prefix, out),
@@ -41,6 +55,8 @@ fn paths(registry: &BTreeMap<String, ContainerFormat>, root: &str) -> Vec<String
 
 fn trace<T: serde::de::DeserializeOwned>(root: &str) -> Vec<String> {
     let mut tracer = Tracer::new(TracerConfig::default());
+    // Every variant of the experiment's test (an enum is traced one variant a pass).
+    tracer.trace_simple_type::<cpg_lab::config::ExperimentTest>().unwrap();
     tracer.trace_type::<T>(&Samples::new()).unwrap();
     let registry = tracer.registry().unwrap();
     paths(&registry, root)
@@ -101,6 +117,13 @@ fn errors_name_the_key_its_line_and_what_it_takes() {
     assert!(e.contains("`data.rate_hz`") && e.contains("1 to"), "{e}");
     let e = err(&format!("{base}\n[training]\nscore = \"orbit\"\n"));
     assert!(e.contains("[training.orbit]"), "{e}");
+    let exp = "\n[experiment]\nid = \"E1\"\ntitle = \"t\"\nprotocol = \"ours\"\n";
+    let e = err(&format!("{base}{exp}[experiment.test.walking]\nrun_s = 3\n"));
+    assert!(e.contains("`experiment.test`") && e.contains("stability") && e.contains("coupling"), "{e}");
+    let e = err(&format!("{base}{exp}[experiment.test.stability]\nlong_run_s = 1e9\n"));
+    assert!(e.contains("`experiment.test.stability.long_run_s`") && e.contains("86400"), "{e}");
+    let e = err(&format!("{base}{exp}[experiment.test.stability]\n[experiment.test.gaits]\nrun_s = 3\n"));
+    assert!(e.contains("`experiment.test`"), "{e}");
     let e = err(&base.replace("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"a,b\"]"));
     assert!(e.contains("`data.controls[0]`") && e.contains("commas"), "{e}");
 }
@@ -117,15 +140,19 @@ fn a_configuration_written_back_reads_the_same() {
     let canon = |p: &Path| p.canonicalize().unwrap_or_else(|_| p.to_owned());
     assert_eq!(canon(again.data.skeleton.as_ref().unwrap()), canon(c.data.skeleton.as_ref().unwrap()));
     assert_eq!(canon(&again.data.segments[1].motion), canon(&c.data.segments[1].motion));
-    let robot =
-        |c: &Config| c.experiment.as_ref().and_then(|e| e.gaits.as_ref()).and_then(|g| g.robot.clone()).unwrap();
+    let robot = |c: &Config| match &c.experiment.as_ref().unwrap().test {
+        cpg_lab::config::ExperimentTest::Gaits(g) => g.robot.clone().unwrap(),
+        other => panic!("e5 is a gaits experiment, not {}", other.kind()),
+    };
     assert_eq!(canon(&robot(&again).urdf), canon(&robot(&c).urdf));
     assert_eq!(canon(&robot(&again).map), canon(&robot(&c).map));
     let paper = |c: &Config| c.experiment.as_ref().and_then(|e| e.paper_config.clone()).unwrap();
     assert_eq!(canon(&paper(&again)), canon(&paper(&c)));
     let (mut a, mut b) = (again.clone(), c.clone());
     for x in [&mut a, &mut b] {
-        if let Some(r) = x.experiment.as_mut().and_then(|e| e.gaits.as_mut()).and_then(|g| g.robot.as_mut()) {
+        if let Some(cpg_lab::config::ExperimentTest::Gaits(g)) = x.experiment.as_mut().map(|e| &mut e.test)
+            && let Some(r) = g.robot.as_mut()
+        {
             r.urdf = Default::default();
             r.map = Default::default();
         }

@@ -50,87 +50,130 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
         }
         lines.next();
     }
-    let n_bones_with_dofs = skeleton.bones.iter().filter(|b| !b.dofs.is_empty()).count() + 1;
-    // Column layout, fixed by the first frame: (bone name, first column).
-    let mut layout: Vec<(String, usize)> = Vec::new();
-    let mut channels: Vec<Channel> = Vec::new();
-    let mut values: Vec<f64> = Vec::new();
-    let mut frame_no: Option<usize> = None;
-    let mut first_frame_no = 0;
-    let mut row: Vec<f64> = Vec::new();
-    let mut seen: Vec<bool> = Vec::new();
-    let mut frame_line = 0;
+    let mut f = Frames { radians, ..Frames::new(cx, skeleton) };
+    for l in lines {
+        let first = l.toks[0];
+        if first.text.bytes().all(|b| b.is_ascii_digit()) {
+            f.frame_number(&l)?;
+        } else {
+            f.bone_line(&l)?;
+        }
+    }
+    let Some(last) = f.frame_no else {
+        return Err(cx.err(last_line, 0, K::NoFrames).into());
+    };
+    f.finish(last, f.frame_line)?;
+    Motion::new(f.channels, f.values, sample_rate_hz).map_err(|e| match e {
+        Error::InvalidArgument(m) => Error::InvalidArgument(format!("{file}: {m}")),
+        other => other,
+    })
+}
 
-    let finish_frame = |frame: usize,
-                        line: usize,
-                        layout: &mut Vec<(String, usize)>,
-                        channels: &[Channel],
-                        row: &mut Vec<f64>,
-                        seen: &mut Vec<bool>,
-                        values: &mut Vec<f64>|
-     -> std::result::Result<(), ParseError> {
+/// The frames of an AMC file as they are read.
+struct Frames<'a> {
+    cx: Ctx<'a>,
+    skeleton: &'a Skeleton,
+    /// `:RADIANS`: rotations are converted to degrees.
+    radians: bool,
+    /// Column layout, fixed by the first frame: (bone name, first column).
+    layout: Vec<(String, usize)>,
+    channels: Vec<Channel>,
+    values: Vec<f64>,
+    /// The frame being read.
+    frame_no: Option<usize>,
+    first_frame_no: usize,
+    /// Its values, and which bones it has given.
+    row: Vec<f64>,
+    seen: Vec<bool>,
+    /// The line of its number.
+    frame_line: usize,
+}
+
+impl<'a> Frames<'a> {
+    fn new(cx: Ctx<'a>, skeleton: &'a Skeleton) -> Frames<'a> {
+        Frames {
+            cx,
+            skeleton,
+            radians: false,
+            layout: Vec::new(),
+            channels: Vec::new(),
+            values: Vec::new(),
+            frame_no: None,
+            first_frame_no: 0,
+            row: Vec::new(),
+            seen: Vec::new(),
+            frame_line: 0,
+        }
+    }
+
+    /// Ends frame `frame` (numbered at `line`): every bone with DOFs given once.
+    fn finish(&mut self, frame: usize, line: usize) -> std::result::Result<(), ParseError> {
+        let n_bones_with_dofs = self.skeleton.bones.iter().filter(|b| !b.dofs.is_empty()).count() + 1;
         let missing: Vec<String> =
-            layout.iter().zip(seen.iter()).filter(|(_, s)| !**s).map(|((b, _), _)| b.clone()).collect();
-        if !missing.is_empty() || layout.len() < n_bones_with_dofs {
+            self.layout.iter().zip(self.seen.iter()).filter(|(_, s)| !**s).map(|((b, _), _)| b.clone()).collect();
+        if !missing.is_empty() || self.layout.len() < n_bones_with_dofs {
             let mut bones = missing;
-            let have: Vec<&str> = layout.iter().map(|(b, _)| b.as_str()).collect();
+            let have: Vec<&str> = self.layout.iter().map(|(b, _)| b.as_str()).collect();
             if !have.contains(&"root") {
                 bones.push("root".into());
             }
             bones.extend(
-                skeleton
+                self.skeleton
                     .bones
                     .iter()
                     .filter(|b| !b.dofs.is_empty() && !have.contains(&b.name.as_str()))
                     .map(|b| b.name.clone()),
             );
-            return Err(ParseError { file: file.into(), line, column: 0, kind: K::MissingInFrame { frame, bones } });
+            return Err(ParseError {
+                file: self.cx.file.into(),
+                line,
+                column: 0,
+                kind: K::MissingInFrame { frame, bones },
+            });
         }
-        debug_assert_eq!(row.len(), channels.len());
-        values.extend_from_slice(row);
-        seen.iter_mut().for_each(|s| *s = false);
+        debug_assert_eq!(self.row.len(), self.channels.len());
+        self.values.extend_from_slice(&self.row);
+        self.seen.iter_mut().for_each(|s| *s = false);
         Ok(())
-    };
+    }
 
-    for l in lines {
-        let first = l.toks[0];
-        if first.text.bytes().all(|b| b.is_ascii_digit()) {
-            // A frame number line.
-            if l.toks.len() != 1 {
-                return Err(cx
-                    .err(
-                        l.number,
-                        l.toks[1].column,
-                        K::Unexpected {
-                            expected: "a frame number alone on its line".into(),
-                            found: l.toks[1].text.into(),
-                        },
-                    )
-                    .into());
-            }
-            let n: usize = first.text.parse().ok().filter(|&n| n <= MAX_FRAME_NUMBER).ok_or_else(|| {
-                cx.err(
+    /// A frame number alone on its line: the previous frame ends, numbers are consecutive.
+    fn frame_number(&mut self, l: &lex::Line<'_>) -> Result<()> {
+        let (cx, first) = (self.cx, l.toks[0]);
+        if l.toks.len() != 1 {
+            return Err(cx
+                .err(
                     l.number,
-                    first.column,
-                    K::BadNumber { token: first.text.into(), expected: "a frame number from 0 to 1000000000" },
+                    l.toks[1].column,
+                    K::Unexpected { expected: "a frame number alone on its line".into(), found: l.toks[1].text.into() },
                 )
-            })?;
-            match frame_no {
-                None => first_frame_no = n,
-                Some(prev) => {
-                    finish_frame(prev, frame_line, &mut layout, &channels, &mut row, &mut seen, &mut values)?;
-                    if n != prev + 1 {
-                        return Err(cx
-                            .err(l.number, first.column, K::FrameNumber { expected: prev + 1, found: n })
-                            .into());
-                    }
+                .into());
+        }
+        let n: usize = first.text.parse().ok().filter(|&n| n <= MAX_FRAME_NUMBER).ok_or_else(|| {
+            cx.err(
+                l.number,
+                first.column,
+                K::BadNumber { token: first.text.into(), expected: "a frame number from 0 to 1000000000" },
+            )
+        })?;
+        match self.frame_no {
+            None => self.first_frame_no = n,
+            Some(prev) => {
+                self.finish(prev, self.frame_line)?;
+                if n != prev + 1 {
+                    return Err(cx.err(l.number, first.column, K::FrameNumber { expected: prev + 1, found: n }).into());
                 }
             }
-            frame_no = Some(n);
-            frame_line = l.number;
-            continue;
         }
-        let Some(frame) = frame_no else {
+        self.frame_no = Some(n);
+        self.frame_line = l.number;
+        Ok(())
+    }
+
+    /// A bone's values within the current frame.
+    fn bone_line(&mut self, l: &lex::Line<'_>) -> Result<()> {
+        let (cx, first) = (self.cx, l.toks[0]);
+        let Some(frame) = self.frame_no else {
             return Err(cx
                 .err(
                     l.number,
@@ -140,7 +183,8 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
                 .into());
         };
         let name = first.text;
-        let dofs = skeleton.dofs_of(name).ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
+        let dofs =
+            self.skeleton.dofs_of(name).ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
         if dofs.is_empty() {
             return Err(cx.err(l.number, first.column, K::NoDofBone(name.into())).into());
         }
@@ -154,20 +198,20 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
                 )
                 .into());
         }
-        let slot = match layout.iter().position(|(b, _)| b == name) {
+        let slot = match self.layout.iter().position(|(b, _)| b == name) {
             Some(s) => s,
-            None if frame == first_frame_no => {
-                layout.push((name.to_owned(), channels.len()));
-                channels.extend(dofs.iter().map(|&dof| Channel { bone: name.to_owned(), dof }));
-                row.resize(channels.len(), 0.0);
-                seen.push(false);
-                layout.len() - 1
+            None if frame == self.first_frame_no => {
+                self.layout.push((name.to_owned(), self.channels.len()));
+                self.channels.extend(dofs.iter().map(|&dof| Channel { bone: name.to_owned(), dof }));
+                self.row.resize(self.channels.len(), 0.0);
+                self.seen.push(false);
+                self.layout.len() - 1
             }
             None => {
                 // A bone that the first frame did not have: the first frame was incomplete.
                 return Err(cx
                     .err(
-                        frame_line,
+                        self.frame_line,
                         0,
                         K::Unexpected {
                             expected: format!("bone '{name}' in the first frame as in frame {frame}"),
@@ -177,27 +221,20 @@ pub fn parse_amc(file: &str, bytes: &[u8], skeleton: &Skeleton, sample_rate_hz: 
                     .into());
             }
         };
-        if seen[slot] {
+        if self.seen[slot] {
             return Err(cx.err(l.number, first.column, K::DuplicateInFrame { bone: name.into(), frame }).into());
         }
-        seen[slot] = true;
-        let col = layout[slot].1;
+        self.seen[slot] = true;
+        let col = self.layout[slot].1;
         for (k, t) in vals.iter().enumerate() {
             let mut v = cx.num(l.number, *t, "a channel value")?;
-            if radians && dofs[k].is_rotation() {
+            if self.radians && dofs[k].is_rotation() {
                 v = v.to_degrees();
             }
-            row[col + k] = v;
+            self.row[col + k] = v;
         }
+        Ok(())
     }
-    let Some(last) = frame_no else {
-        return Err(cx.err(last_line, 0, K::NoFrames).into());
-    };
-    finish_frame(last, frame_line, &mut layout, &channels, &mut row, &mut seen, &mut values)?;
-    Motion::new(channels, values, sample_rate_hz).map_err(|e| match e {
-        Error::InvalidArgument(m) => Error::InvalidArgument(format!("{file}: {m}")),
-        other => other,
-    })
 }
 
 /// Writes a motion as AMC text (`:FULLY-SPECIFIED`, `:DEGREES`), frames numbered from 1.

@@ -40,40 +40,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
         match kw.text {
             ":version" => sk.version = rest_of(l),
             ":name" => sk.name = rest_of(l),
-            ":units" => {
-                while i < lines.len() && !is_section(&lines[i]) {
-                    let u = &lines[i];
-                    i += 1;
-                    let key = u.toks[0];
-                    let val = u.toks.get(1).ok_or_else(|| {
-                        cx.err(u.number, 0, K::Arity { keyword: key.text.into(), expected: 1, found: 0 })
-                    })?;
-                    match key.text {
-                        "mass" => sk.units.mass = positive(&cx, u.number, *val, "a mass unit of at least 1e-6")?,
-                        "length" => sk.units.length = positive(&cx, u.number, *val, "a length unit of at least 1e-6")?,
-                        "angle" => {
-                            sk.units.angle = match val.text.to_ascii_lowercase().as_str() {
-                                "deg" | "degrees" => AngleUnit::Deg,
-                                "rad" | "radians" => AngleUnit::Rad,
-                                _ => {
-                                    return Err(cx.err(
-                                        u.number,
-                                        val.column,
-                                        K::Unexpected { expected: "'deg' or 'rad'".into(), found: val.text.into() },
-                                    ));
-                                }
-                            }
-                        }
-                        other => {
-                            return Err(cx.err(
-                                u.number,
-                                key.column,
-                                K::Unexpected { expected: "'mass', 'length' or 'angle'".into(), found: other.into() },
-                            ));
-                        }
-                    }
-                }
-            }
+            ":units" => parse_units(&cx, &lines, &mut i, &mut sk.units)?,
             ":documentation" => {
                 let mut doc = Vec::new();
                 while i < lines.len() && !is_section(&lines[i]) {
@@ -84,57 +51,11 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
             }
             ":root" => {
                 seen_root = true;
-                while i < lines.len() && !is_section(&lines[i]) {
-                    let r = &lines[i];
-                    i += 1;
-                    match r.toks[0].text {
-                        "order" => {
-                            let mut order = Vec::new();
-                            for t in &r.toks[1..] {
-                                order.push(
-                                    Dof::parse(t.text)
-                                        .ok_or_else(|| cx.err(r.number, t.column, K::UnknownDof(t.text.into())))?,
-                                );
-                            }
-                            check_unique_dofs(&cx, r, &order)?;
-                            sk.root.order = order;
-                        }
-                        "axis" => sk.root.axis = axis_order(&cx, r, 1)?,
-                        "position" => sk.root.position = cx.nums::<3>(r, "a root position coordinate")?,
-                        "orientation" => {
-                            sk.root.orientation_deg = cx.nums::<3>(r, "a root orientation angle")?;
-                        }
-                        other => {
-                            return Err(cx.err(
-                                r.number,
-                                r.toks[0].column,
-                                K::Unexpected {
-                                    expected: "'order', 'axis', 'position' or 'orientation'".into(),
-                                    found: other.into(),
-                                },
-                            ));
-                        }
-                    }
-                }
+                parse_root(&cx, &lines, &mut i, &mut sk.root)?;
             }
             ":bonedata" => {
                 seen_bones = true;
-                while i < lines.len() && !is_section(&lines[i]) {
-                    let b = &lines[i];
-                    if b.toks[0].text != "begin" {
-                        return Err(cx.err(
-                            b.number,
-                            b.toks[0].column,
-                            K::Unexpected { expected: "'begin'".into(), found: b.toks[0].text.into() },
-                        ));
-                    }
-                    i += 1;
-                    let bone = parse_bone(&cx, &lines, &mut i, b.number, last_line)?;
-                    if bone.name == "root" || sk.bones.iter().any(|o| o.name == bone.name) {
-                        return Err(cx.err(b.number, 0, K::DuplicateBone(bone.name)));
-                    }
-                    sk.bones.push(bone);
-                }
+                parse_bonedata(&cx, &lines, &mut i, &mut sk.bones, last_line)?;
                 parents = vec![None; sk.bones.len()];
             }
             ":hierarchy" => {
@@ -173,6 +94,107 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
     }
     sk.finish().map_err(|msg| cx.err(last_line, 0, K::Hierarchy(msg)))?;
     Ok(sk)
+}
+
+/// The lines of `:units`, from line `i` to the next section.
+fn parse_units(cx: &Ctx<'_>, lines: &[Line<'_>], i: &mut usize, units: &mut Units) -> Result<(), ParseError> {
+    while *i < lines.len() && !is_section(&lines[*i]) {
+        let u = &lines[*i];
+        *i += 1;
+        let key = u.toks[0];
+        let val = u
+            .toks
+            .get(1)
+            .ok_or_else(|| cx.err(u.number, 0, K::Arity { keyword: key.text.into(), expected: 1, found: 0 }))?;
+        match key.text {
+            "mass" => units.mass = positive(cx, u.number, *val, "a mass unit of at least 1e-6")?,
+            "length" => units.length = positive(cx, u.number, *val, "a length unit of at least 1e-6")?,
+            "angle" => {
+                units.angle = match val.text.to_ascii_lowercase().as_str() {
+                    "deg" | "degrees" => AngleUnit::Deg,
+                    "rad" | "radians" => AngleUnit::Rad,
+                    _ => {
+                        return Err(cx.err(
+                            u.number,
+                            val.column,
+                            K::Unexpected { expected: "'deg' or 'rad'".into(), found: val.text.into() },
+                        ));
+                    }
+                }
+            }
+            other => {
+                return Err(cx.err(
+                    u.number,
+                    key.column,
+                    K::Unexpected { expected: "'mass', 'length' or 'angle'".into(), found: other.into() },
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The lines of `:root`, from line `i` to the next section.
+fn parse_root(cx: &Ctx<'_>, lines: &[Line<'_>], i: &mut usize, root: &mut Root) -> Result<(), ParseError> {
+    while *i < lines.len() && !is_section(&lines[*i]) {
+        let r = &lines[*i];
+        *i += 1;
+        match r.toks[0].text {
+            "order" => {
+                let mut order = Vec::new();
+                for t in &r.toks[1..] {
+                    order.push(
+                        Dof::parse(t.text).ok_or_else(|| cx.err(r.number, t.column, K::UnknownDof(t.text.into())))?,
+                    );
+                }
+                check_unique_dofs(cx, r, &order)?;
+                root.order = order;
+            }
+            "axis" => root.axis = axis_order(cx, r, 1)?,
+            "position" => root.position = cx.nums::<3>(r, "a root position coordinate")?,
+            "orientation" => {
+                root.orientation_deg = cx.nums::<3>(r, "a root orientation angle")?;
+            }
+            other => {
+                return Err(cx.err(
+                    r.number,
+                    r.toks[0].column,
+                    K::Unexpected {
+                        expected: "'order', 'axis', 'position' or 'orientation'".into(),
+                        found: other.into(),
+                    },
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The bones of `:bonedata`, from line `i` to the next section.
+fn parse_bonedata(
+    cx: &Ctx<'_>,
+    lines: &[Line<'_>],
+    i: &mut usize,
+    bones: &mut Vec<Bone>,
+    last_line: usize,
+) -> Result<(), ParseError> {
+    while *i < lines.len() && !is_section(&lines[*i]) {
+        let b = &lines[*i];
+        if b.toks[0].text != "begin" {
+            return Err(cx.err(
+                b.number,
+                b.toks[0].column,
+                K::Unexpected { expected: "'begin'".into(), found: b.toks[0].text.into() },
+            ));
+        }
+        *i += 1;
+        let bone = parse_bone(cx, lines, i, b.number, last_line)?;
+        if bone.name == "root" || bones.iter().any(|o| o.name == bone.name) {
+            return Err(cx.err(b.number, 0, K::DuplicateBone(bone.name)));
+        }
+        bones.push(bone);
+    }
+    Ok(())
 }
 
 fn is_section(l: &Line<'_>) -> bool {
@@ -288,43 +310,7 @@ fn parse_bone(
                 }
                 check_unique_dofs(cx, l, &dofs)?;
             }
-            "limits" => {
-                let mut vals: Vec<f64> = Vec::new();
-                for t in &l.toks[1..] {
-                    vals.push(cx.num_or_inf(l.number, *t, "a limit", true)?);
-                }
-                // Continuation lines are the ones that start with '(' .
-                while let Some(c) = lines.get(*i) {
-                    if !c.text.trim_start().starts_with('(') {
-                        break;
-                    }
-                    *i += 1;
-                    for t in &c.toks {
-                        vals.push(cx.num_or_inf(c.number, *t, "a limit", true)?);
-                    }
-                }
-                if !vals.len().is_multiple_of(2) {
-                    return Err(cx.err(
-                        l.number,
-                        0,
-                        K::Unexpected {
-                            expected: "limits as (min max) pairs".into(),
-                            found: format!("{} numbers", vals.len()),
-                        },
-                    ));
-                }
-                limits = vals.chunks_exact(2).map(|p| (p[0], p[1])).collect();
-                if let Some(bad) = limits.iter().find(|(lo, hi)| lo > hi) {
-                    return Err(cx.err(
-                        l.number,
-                        0,
-                        K::Unexpected {
-                            expected: "limits with min <= max".into(),
-                            found: format!("({} {})", bad.0, bad.1),
-                        },
-                    ));
-                }
-            }
+            "limits" => limits = parse_limits(cx, lines, i, l)?,
             "bodymass" | "cofmass" => {}
             other => {
                 return Err(cx.err(
@@ -349,6 +335,41 @@ fn parse_bone(
         return Err(cx.err(dof_line, 0, K::LimitsCount { bone: name, expected: dofs.len(), found: limits.len() }));
     }
     Ok(Bone { id: id.unwrap_or(0), name, direction, length, axis_deg, axis_order, dofs, limits, parent: None })
+}
+
+/// A bone's `limits` line `l` and its continuation lines (from line `i`):
+/// one `(min max)` pair per DOF.
+fn parse_limits(cx: &Ctx<'_>, lines: &[Line<'_>], i: &mut usize, l: &Line<'_>) -> Result<Vec<(f64, f64)>, ParseError> {
+    let mut vals: Vec<f64> = Vec::new();
+    for t in &l.toks[1..] {
+        vals.push(cx.num_or_inf(l.number, *t, "a limit", true)?);
+    }
+    // Continuation lines are the ones that start with '(' .
+    while let Some(c) = lines.get(*i) {
+        if !c.text.trim_start().starts_with('(') {
+            break;
+        }
+        *i += 1;
+        for t in &c.toks {
+            vals.push(cx.num_or_inf(c.number, *t, "a limit", true)?);
+        }
+    }
+    if !vals.len().is_multiple_of(2) {
+        return Err(cx.err(
+            l.number,
+            0,
+            K::Unexpected { expected: "limits as (min max) pairs".into(), found: format!("{} numbers", vals.len()) },
+        ));
+    }
+    let limits: Vec<(f64, f64)> = vals.chunks_exact(2).map(|p| (p[0], p[1])).collect();
+    if let Some(bad) = limits.iter().find(|(lo, hi)| lo > hi) {
+        return Err(cx.err(
+            l.number,
+            0,
+            K::Unexpected { expected: "limits with min <= max".into(), found: format!("({} {})", bad.0, bad.1) },
+        ));
+    }
+    Ok(limits)
 }
 
 fn parse_hierarchy(

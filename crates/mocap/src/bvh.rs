@@ -203,49 +203,7 @@ fn hierarchy<'a, I: Iterator<Item = Line<'a>>>(cx: &Ctx<'_>, s: &mut Stream<'a, 
                 let (n, t) = s.take(cx, "an offset")?;
                 *o = cx.num(n, t, "an offset")?;
             }
-            let mut channels = Vec::new();
-            if !end_site {
-                s.expect(cx, "CHANNELS")?;
-                let (n, t) = s.take(cx, "a channel count")?;
-                let count: usize = t.text.parse().ok().filter(|&c| c <= 6).ok_or_else(|| {
-                    cx.err(
-                        n,
-                        t.column,
-                        K::Unexpected { expected: "a channel count from 0 to 6".into(), found: t.text.into() },
-                    )
-                })?;
-                for _ in 0..count {
-                    let (n, t) = s.take(cx, "a channel name")?;
-                    let d = channel_dof(t.text).ok_or_else(|| {
-                        cx.err(
-                            n,
-                            t.column,
-                            K::Unexpected {
-                                expected: "Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation".into(),
-                                found: t.text.into(),
-                            },
-                        )
-                    })?;
-                    if channels.contains(&d) {
-                        return Err(cx.err(
-                            n,
-                            t.column,
-                            K::Unexpected { expected: "each channel once per joint".into(), found: t.text.into() },
-                        ));
-                    }
-                    if parent.is_some() && !d.is_rotation() {
-                        return Err(cx.err(
-                            n,
-                            t.column,
-                            K::Unexpected {
-                                expected: "rotation channels (position channels are read on the root only)".into(),
-                                found: t.text.into(),
-                            },
-                        ));
-                    }
-                    channels.push(d);
-                }
-            }
+            let channels = if end_site { Vec::new() } else { joint_channels(cx, s, parent.is_some())? };
             nodes.push(Node { name, parent, offset, channels, end_site });
             open.push(nodes.len() - 1);
         }
@@ -274,6 +232,53 @@ fn hierarchy<'a, I: Iterator<Item = Line<'a>>>(cx: &Ctx<'_>, s: &mut Stream<'a, 
             }
         }
     }
+}
+
+/// A joint's `CHANNELS` line: the count and each channel once (a `child`
+/// joint has rotations only; positions are read on the root).
+fn joint_channels<'a, I: Iterator<Item = Line<'a>>>(
+    cx: &Ctx<'_>,
+    s: &mut Stream<'a, I>,
+    child: bool,
+) -> Result<Vec<Dof>, ParseError> {
+    let mut channels = Vec::new();
+    s.expect(cx, "CHANNELS")?;
+    let (n, t) = s.take(cx, "a channel count")?;
+    let count: usize = t.text.parse().ok().filter(|&c| c <= 6).ok_or_else(|| {
+        cx.err(n, t.column, K::Unexpected { expected: "a channel count from 0 to 6".into(), found: t.text.into() })
+    })?;
+    for _ in 0..count {
+        let (n, t) = s.take(cx, "a channel name")?;
+        let d = channel_dof(t.text).ok_or_else(|| {
+            cx.err(
+                n,
+                t.column,
+                K::Unexpected {
+                    expected: "Xposition, Yposition, Zposition, Xrotation, Yrotation or Zrotation".into(),
+                    found: t.text.into(),
+                },
+            )
+        })?;
+        if channels.contains(&d) {
+            return Err(cx.err(
+                n,
+                t.column,
+                K::Unexpected { expected: "each channel once per joint".into(), found: t.text.into() },
+            ));
+        }
+        if child && !d.is_rotation() {
+            return Err(cx.err(
+                n,
+                t.column,
+                K::Unexpected {
+                    expected: "rotation channels (position channels are read on the root only)".into(),
+                    found: t.text.into(),
+                },
+            ));
+        }
+        channels.push(d);
+    }
+    Ok(channels)
 }
 
 /// Millimetres per unit for a figure `size` units across (see the module documentation).
@@ -342,6 +347,35 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
             )
             .into());
     }
+    let values = frame_values(&cx, s, n_frames, n_channels)?;
+    let unit = length_unit(file, opts, &nodes)?;
+    let skeleton = skeleton_of(file, &nodes, unit.0);
+    let mut channels = Vec::with_capacity(n_channels);
+    for n in &nodes {
+        let bone = if n.parent.is_none() { "root" } else { n.name.as_str() };
+        channels.extend(n.channels.iter().map(|&dof| Channel { bone: bone.to_owned(), dof }));
+    }
+    let mut rate = 1.0 / frame_time_s;
+    if (rate - rate.round()).abs() <= 1e-4 * rate {
+        rate = rate.round();
+    }
+    let motion = if channels.is_empty() {
+        // A hierarchy without channels still has a pose: one constant root channel keeps the frames.
+        Motion::new(vec![Channel { bone: "root".into(), dof: Dof::Tx }], vec![0.0; n_frames], rate)?
+    } else {
+        Motion::new(channels, values, rate)?
+    };
+    Ok(Bvh { skeleton, motion, length_unit_mm: unit.0, unit_inferred: unit.1, frame_time_s })
+}
+
+/// The frames after the frame time's line: `n_frames` lines of `n_channels` values each, and nothing after.
+fn frame_values<'a, I: Iterator<Item = Line<'a>>>(
+    cx: &Ctx<'_>,
+    mut s: Stream<'a, I>,
+    n_frames: usize,
+    n_channels: usize,
+) -> Result<Vec<f64>> {
+    let last_line = s.last_line;
     let mut values = Vec::with_capacity(n_frames.saturating_mul(n_channels).min(1 << 24));
     let mut frames = 0usize;
     for l in s.current.take().into_iter().chain(s.lines) {
@@ -382,7 +416,12 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
             )
             .into());
     }
-    let unit = match opts.length_unit_mm {
+    Ok(values)
+}
+
+/// The length unit in millimetres: given (and bounded) or inferred from the rest pose's size; whether it was inferred.
+fn length_unit(file: &str, opts: &BvhOptions, nodes: &[Node]) -> Result<(f64, bool)> {
+    Ok(match opts.length_unit_mm {
         Some(u) if !(u.is_finite() && (1e-6..=1e6).contains(&u)) => {
             return Err(Error::InvalidArgument(format!(
                 "{file}: length unit {u} mm; expected 1e-6 to 1e6 mm per BVH unit"
@@ -390,7 +429,7 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
         }
         Some(u) => (u, false),
         None => {
-            let size = rest_size(&nodes);
+            let size = rest_size(nodes);
             let u = infer_length_unit_mm(size).ok_or_else(|| {
                 Error::InvalidArgument(format!(
                     "{file}: the figure is {size:.3} units across in its rest pose, which matches no length unit (metres 0.5–3, CMU units 20–45, inches 45–100, centimetres 100–300, millimetres 500–3000); give the unit in millimetres (bvh_unit_mm)"
@@ -398,24 +437,7 @@ pub fn parse_bvh(file: &str, bytes: &[u8], opts: &BvhOptions) -> Result<Bvh> {
             })?;
             (u, true)
         }
-    };
-    let skeleton = skeleton_of(file, &nodes, unit.0);
-    let mut channels = Vec::with_capacity(n_channels);
-    for n in &nodes {
-        let bone = if n.parent.is_none() { "root" } else { n.name.as_str() };
-        channels.extend(n.channels.iter().map(|&dof| Channel { bone: bone.to_owned(), dof }));
-    }
-    let mut rate = 1.0 / frame_time_s;
-    if (rate - rate.round()).abs() <= 1e-4 * rate {
-        rate = rate.round();
-    }
-    let motion = if channels.is_empty() {
-        // A hierarchy without channels still has a pose: one constant root channel keeps the frames.
-        Motion::new(vec![Channel { bone: "root".into(), dof: Dof::Tx }], vec![0.0; n_frames], rate)?
-    } else {
-        Motion::new(channels, values, rate)?
-    };
-    Ok(Bvh { skeleton, motion, length_unit_mm: unit.0, unit_inferred: unit.1, frame_time_s })
+    })
 }
 
 /// The largest extent of the rest pose along any axis, file units.

@@ -84,6 +84,7 @@ pub(crate) fn lines(text: &str) -> impl Iterator<Item = Line<'_>> {
 pub const MAX_MAGNITUDE: f64 = 1e6;
 
 /// Error helper bound to one file name.
+#[derive(Clone, Copy)]
 pub(crate) struct Ctx<'f> {
     pub file: &'f str,
 }

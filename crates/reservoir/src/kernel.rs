@@ -53,6 +53,12 @@ pub trait SimdDot: Real + pulp::bytemuck::Pod {
     );
 }
 
+// The one exception to the workspace's 120-line bound on functions: the
+// SIMD kernels below are written once for `f32` and `f64` by this macro, and
+// `gemm_simd` keeps its whole tile loop (panel packing offsets, the chains of
+// fused multiply-adds, the row remainder) in one body so that the compiler
+// keeps the accumulators in registers and the fixed summation order stays
+// visible in one place; splitting it would add calls inside the hot loop.
 macro_rules! simd_dot {
     ($t:ty, $v:ident, $n_lanes:ident, $as_simd:ident, $splat:ident, $add:ident, $mul:ident, $fma:ident) => {
         impl SimdDot for $t {

@@ -8,7 +8,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Precision;
-use crate::engine::{Column, ControlSource, Engine, Hold, NoiseSource, ReadoutR, run_columns};
+use crate::engine::{Column, ControlSource, Engine, Hold, NoiseSource, ReadoutR, Shared, run_columns};
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
 use crate::orbit::{OrbitStay, orbit_nmse};
@@ -413,80 +413,9 @@ fn validate_in<R: SimdDot>(
                 holds,
             })
             .collect();
-        let k = columns.len();
         match &data.scoring.score {
-            Score::Nmse => {
-                let mut sse = vec![0.0; k * d];
-                let target = &validation.outputs;
-                let mut sinks: Vec<_> = sse
-                    .chunks_exact_mut(d)
-                    .map(|e| {
-                        move |s: usize, y: &[R]| {
-                            for ((e, yk), t) in e.iter_mut().zip(y).zip(&target[s * d..(s + 1) * d]) {
-                                let diff = yk.to_f64() - t;
-                                *e += diff * diff;
-                                if !e.is_finite() {
-                                    *e = f64::INFINITY;
-                                }
-                            }
-                            true
-                        }
-                    })
-                    .collect();
-                run_columns(&engine.shared, &columns, &mut sinks, steps);
-                drop(sinks);
-                sse.chunks_exact(d)
-                    .map(|e| e.iter().zip(&var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
-                    .collect()
-            }
-            Score::Orbit(stays) => {
-                // Only the scored windows are kept.
-                let windows: Vec<(usize, usize)> = stays.iter().map(|s| (s.end - s.window, s.end)).collect();
-                let per_col: usize = windows.iter().map(|(a, b)| b - a).sum::<usize>() * d;
-                let mut kept = vec![f64::NAN; k * per_col];
-                let mut finite = vec![true; k];
-                let windows = &windows;
-                let mut sinks: Vec<_> = kept
-                    .chunks_exact_mut(per_col.max(1))
-                    .zip(finite.iter_mut())
-                    .map(|(kept, finite)| {
-                        move |s: usize, y: &[R]| {
-                            if y.iter().any(|v| !v.finite()) {
-                                *finite = false;
-                                return false;
-                            }
-                            let mut off = 0;
-                            for &(a, b) in windows {
-                                if (a..b).contains(&s) {
-                                    let dst = off + (s - a) * d;
-                                    for (o, v) in kept[dst..dst + d].iter_mut().zip(y) {
-                                        *o = v.to_f64();
-                                    }
-                                }
-                                off += (b - a) * d;
-                            }
-                            true
-                        }
-                    })
-                    .collect();
-                run_columns(&engine.shared, &columns, &mut sinks, steps);
-                drop(sinks);
-                (0..k)
-                    .map(|c| {
-                        if !finite[c] {
-                            return f64::INFINITY;
-                        }
-                        let mut off = 0;
-                        let mut total = 0.0;
-                        for (stay, &(a, b)) in stays.iter().zip(windows) {
-                            let len = (b - a) * d;
-                            total += orbit_nmse(&kept[c * per_col + off..c * per_col + off + len], stay, d);
-                            off += len;
-                        }
-                        total / stays.len() as f64
-                    })
-                    .collect()
-            }
+            Score::Nmse => score_nmse(&engine.shared, &columns, &validation.outputs, &var, steps),
+            Score::Orbit(stays) => score_orbit(&engine.shared, &columns, stays, steps, d),
         }
     });
     let curve = candidates
@@ -500,6 +429,97 @@ fn validate_in<R: SimdDot>(
         })
         .collect();
     Ok((curve, x0[..n].iter().map(|v| v.to_f64()).collect()))
+}
+
+/// The NMSE of every column's free run against the validation targets,
+/// averaged over the outputs (an output's error divided by its variance).
+fn score_nmse<R: SimdDot>(
+    shared: &Shared<R>,
+    columns: &[Column<'_, R>],
+    target: &[f64],
+    var: &[f64],
+    steps: usize,
+) -> Vec<f64> {
+    let (k, d) = (columns.len(), var.len());
+    let mut sse = vec![0.0; k * d];
+    let mut sinks: Vec<_> = sse
+        .chunks_exact_mut(d)
+        .map(|e| {
+            move |s: usize, y: &[R]| {
+                for ((e, yk), t) in e.iter_mut().zip(y).zip(&target[s * d..(s + 1) * d]) {
+                    let diff = yk.to_f64() - t;
+                    *e += diff * diff;
+                    if !e.is_finite() {
+                        *e = f64::INFINITY;
+                    }
+                }
+                true
+            }
+        })
+        .collect();
+    run_columns(shared, columns, &mut sinks, steps);
+    drop(sinks);
+    sse.chunks_exact(d)
+        .map(|e| e.iter().zip(var).map(|(e, v)| e / (steps as f64 * v)).sum::<f64>() / d as f64)
+        .collect()
+}
+
+/// The orbit score of every column's free run: its scored windows, each
+/// against its stay's cycle at the best phase, averaged over the stays.
+fn score_orbit<R: SimdDot>(
+    shared: &Shared<R>,
+    columns: &[Column<'_, R>],
+    stays: &[OrbitStay],
+    steps: usize,
+    d: usize,
+) -> Vec<f64> {
+    let k = columns.len();
+    // Only the scored windows are kept.
+    let windows: Vec<(usize, usize)> = stays.iter().map(|s| (s.end - s.window, s.end)).collect();
+    let per_col: usize = windows.iter().map(|(a, b)| b - a).sum::<usize>() * d;
+    let mut kept = vec![f64::NAN; k * per_col];
+    let mut finite = vec![true; k];
+    let windows = &windows;
+    let mut sinks: Vec<_> = kept
+        .chunks_exact_mut(per_col.max(1))
+        .zip(finite.iter_mut())
+        .map(|(kept, finite)| {
+            move |s: usize, y: &[R]| {
+                if y.iter().any(|v| !v.finite()) {
+                    *finite = false;
+                    return false;
+                }
+                let mut off = 0;
+                for &(a, b) in windows {
+                    if (a..b).contains(&s) {
+                        let dst = off + (s - a) * d;
+                        for (o, v) in kept[dst..dst + d].iter_mut().zip(y) {
+                            *o = v.to_f64();
+                        }
+                    }
+                    off += (b - a) * d;
+                }
+                true
+            }
+        })
+        .collect();
+    run_columns(shared, columns, &mut sinks, steps);
+    drop(sinks);
+    (0..k)
+        .map(|c| {
+            if !finite[c] {
+                return f64::INFINITY;
+            }
+            let mut off = 0;
+            let mut total = 0.0;
+            for (stay, &(a, b)) in stays.iter().zip(windows) {
+                let len = (b - a) * d;
+                total += orbit_nmse(&kept[c * per_col + off..c * per_col + off + len], stay, d);
+                off += len;
+            }
+            total / stays.len() as f64
+        })
+        .collect()
 }
 
 fn train_in<R: SimdDot>(

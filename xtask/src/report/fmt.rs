@@ -1,4 +1,11 @@
-//! Number formats and a markdown builder shared by every section.
+//! The report's markdown and the writing of sections: their text as
+//! markdown, their figures drawn, their pages and files written. The
+//! sections themselves are built by the experiments (`cpg_lab::experiment`).
+
+use std::path::Path;
+
+use anyhow::Context;
+use cpg_lab::experiment::doc::{Block, Section};
 
 /// Markdown text built line by line.
 #[derive(Debug, Default)]
@@ -16,105 +23,33 @@ impl Md {
 
     /// A table: header cells, alignment per column (`l` or `r`), rows.
     pub fn table(&mut self, head: &[&str], align: &str, rows: &[Vec<String>]) {
-        self.line(format!("| {} |", head.join(" | ")));
-        let a: Vec<&str> = align.chars().map(|c| if c == 'r' { "---:" } else { "---" }).collect();
-        self.line(format!("|{}|", a.join("|")));
-        for r in rows {
-            self.line(format!("| {} |", r.join(" | ")));
-        }
-        self.blank();
+        let mut s = Section::default();
+        s.table(head, align, rows);
+        self.0.push_str(&s.markdown());
     }
-}
 
-use cpg_lab::experiment::claim::{Decision, Source, Value, Verdict};
-pub use cpg_lab::experiment::pen;
-
-/// A time in seconds, or `never`.
-pub fn secs(x: Option<f64>) -> String {
-    x.map_or("never".into(), |v| format!("{v:.2} s"))
-}
-
-/// A period in frames, or `decayed`.
-pub fn frames(x: Option<f64>) -> String {
-    x.map_or("decayed".into(), |v| format!("{v:.2}"))
-}
-
-/// `reproduced`, `not reproduced`, `not run`; `(at the limit)` when a
-/// comparison that decided it was closer than the printed digits.
-pub fn verdict(v: &Verdict) -> String {
-    let word = match v.decision {
-        Decision::Reproduced => "reproduced",
-        Decision::NotReproduced => "not reproduced",
-        Decision::NotRun => "not run",
-    };
-    if v.at_limit { format!("{word} (at the limit)") } else { word.to_owned() }
-}
-
-/// A measured value as printed: counts with their 95 % interval, spreads
-/// as median (range; n), numbers with their unit.
-pub fn value(v: &Value) -> String {
-    let unit = |u: &str| if u.is_empty() { String::new() } else { format!(" {u}") };
-    match v {
-        Value::Count(p) => {
-            format!("{} of {} (95 % interval {:.0}–{:.0} %)", p.k, p.n, 100.0 * p.low, 100.0 * p.high)
-        }
-        Value::Spread { spread: s, unit: u, digits } => {
-            if s.n == 0 {
-                "—".into()
-            } else if s.n == 1 {
-                format!("{:.*}{} (n = 1)", digits, s.median, unit(u))
-            } else {
-                format!("{:.*}{} ({:.*}–{:.*}; n = {})", digits, s.median, unit(u), digits, s.min, digits, s.max, s.n)
+    /// A section: its text here; with `dir`, its figures drawn and its pages and files written there.
+    pub fn section(&mut self, s: &Section, dir: Option<&Path>) -> anyhow::Result<()> {
+        self.0.push_str(&s.markdown());
+        let Some(dir) = dir else { return Ok(()) };
+        for b in &s.blocks {
+            match b {
+                Block::Figure { stem, panels, columns, size } => {
+                    crate::figures::save(&dir.join(stem), panels, *columns, *size)?;
+                }
+                Block::Page { name, scene, gif_s } => {
+                    std::fs::write(dir.join(format!("{name}.html")), scene.to_html())?;
+                    if let Some(seconds) = gif_s {
+                        let opts = cpg_view::GifOptions { seconds: Some(*seconds), ..Default::default() };
+                        std::fs::write(dir.join(format!("{name}.gif")), scene.to_gif(&opts)?)?;
+                    }
+                }
+                Block::File { name, bytes } => {
+                    std::fs::write(dir.join(name), bytes).with_context(|| format!("writing {name}"))?;
+                }
+                Block::Line(_) | Block::Blank | Block::Table { .. } => {}
             }
         }
-        Value::Number { value, unit: u, digits } => format!("{value:.*}{}", digits, unit(u)),
-        Value::Text { text } => text.clone(),
-    }
-}
-
-/// The paper's words (quoted, with where) or our reading (marked inferred).
-pub fn sources(s: &[Source]) -> String {
-    s.iter()
-        .map(|x| match x {
-            Source::Quote(q) => format!("“{}” ({})", q.text, q.place),
-            Source::Inferred { text } => format!("inferred: {text}"),
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// `yes` / `no`.
-pub fn yes(ok: bool) -> &'static str {
-    if ok { "yes" } else { "no" }
-}
-
-/// A markdown anchor of a heading text (GitHub's rule, enough for our headings).
-pub fn anchor(heading: &str) -> String {
-    heading
-        .to_lowercase()
-        .chars()
-        .filter_map(|c| {
-            if c.is_alphanumeric() || c == '-' || c == '_' {
-                Some(c)
-            } else if c == ' ' {
-                Some('-')
-            } else {
-                None
-            }
-        })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn formats() {
-        assert_eq!(pen(0.012589254117941675), "1.26e-2");
-        assert_eq!(pen(10.0), "1.00e1");
-        assert_eq!(frames(None), "decayed");
-        assert_eq!(secs(Some(0.7916)), "0.79 s");
-        assert_eq!(anchor("E1–E3: the left femur"), "e1e3-the-left-femur");
+        Ok(())
     }
 }

@@ -2,9 +2,7 @@
 //! `experiments/` through `cpg-lab` and renders the results: REPORT.md,
 //! metrics.json and the figures. Nothing here computes a result.
 
-mod families;
 mod fmt;
-mod reservoir;
 mod summary;
 #[cfg(test)]
 mod tests;
@@ -55,9 +53,28 @@ pub enum Part {
     All,
 }
 
-/// The reservoir experiments, in report order: the paper's protocol, ours, then our extensions.
-pub const RESERVOIR: [&str; 10] =
-    ["e1-paper", "e1", "e4-paper", "e4", "e4-extension", "e5-paper", "e5", "e5-extension", "e6-paper", "e6"];
+/// The reservoir experiments, in report order: every configuration of
+/// `experiments/` with an `[experiment]` table (`families.toml` aside), by
+/// experiment (the file name before its first `-`), then the paper's
+/// protocol, ours and our extensions. A new experiment is a new file there.
+pub fn reservoir_experiments() -> anyhow::Result<Vec<PathBuf>> {
+    let dir = crate::root().join("experiments");
+    let mut found = Vec::new();
+    for e in std::fs::read_dir(&dir).with_context(|| format!("reading {}", dir.display()))? {
+        let p = e?.path();
+        if p.extension().is_none_or(|x| x != "toml") || p.file_name().is_some_and(|f| f == "families.toml") {
+            continue;
+        }
+        let c = Config::load(&p)?;
+        let Some(x) = &c.experiment else { continue };
+        let rank = ["paper", "ours", "extension", "tried"].iter().position(|r| *r == x.protocol).unwrap_or(4);
+        let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let base = stem.split('-').next().unwrap_or_default().to_owned();
+        found.push(((base, rank, stem), p));
+    }
+    found.sort();
+    Ok(found.into_iter().map(|(_, p)| p).collect())
+}
 
 struct Bars;
 
@@ -92,11 +109,6 @@ fn rel(p: &Path) -> String {
     let root = crate::root();
     let root = root.canonicalize().unwrap_or(root);
     out.strip_prefix(&root).or_else(|_| out.strip_prefix(crate::root())).unwrap_or(&out).display().to_string()
-}
-
-/// [`rel`] of a path held as text.
-pub fn rel_str(p: &str) -> String {
-    rel(Path::new(p))
 }
 
 /// Runs one configuration, timing it.
@@ -152,7 +164,7 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     if !args.configs.is_empty() || args.experiment != Part::Families {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
         let paths: Vec<PathBuf> = if args.configs.is_empty() {
-            RESERVOIR.iter().map(|name| dir.join(format!("{name}.toml"))).collect()
+            reservoir_experiments()?
         } else {
             let cwd = std::env::current_dir().context("the current directory")?;
             args.configs.iter().map(|p| if p.is_absolute() { p.clone() } else { cwd.join(p) }).collect()
@@ -397,8 +409,7 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
             None => format!("the papers' texts were not found at `{}`, so the quotations were not checked by this run.", papers_dir().display()),
         }));
     md.blank();
-    let headings = summary::Headings { families: families::HEADING.into() };
-    summary::summary(&mut md, &r.main, r.families.as_ref(), &headings);
+    summary::summary(&mut md, &r.main, r.families.as_ref());
     md.line("## How to read this report");
     md.blank();
     md.line("Each reservoir experiment runs over the same reservoir seeds with the paper's protocol (the penalty chosen by the NMSE of a noisy free run), with ours (the paper's mechanism, our validation and training choices) and, where the paper's mechanism fails, with our extension of it. Each section lists what every configuration changes against the paper, the conditions its validation and its test used, and the rules of its verdicts.");
@@ -410,30 +421,13 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
         all.extend(r.tried.iter().cloned());
         summary::tried(&mut md, &all);
     }
-    let st: Vec<_> = r
-        .main
-        .iter()
-        .filter_map(|(_, o)| if let Outcome::Stability(s) = o { Some(s.as_ref()) } else { None })
-        .collect();
-    reservoir::stability(&mut md, &st, Some(dir))?;
-    let fr: Vec<_> = r
-        .main
-        .iter()
-        .filter_map(|(_, o)| if let Outcome::Frequency(s) = o { Some(s.as_ref()) } else { None })
-        .collect();
-    reservoir::frequency(&mut md, &fr, Some(dir))?;
-    let ga: Vec<_> =
-        r.main.iter().filter_map(|(_, o)| if let Outcome::Gaits(s) = o { Some(s.as_ref()) } else { None }).collect();
-    reservoir::gaits(&mut md, &ga, Some(dir))?;
-    let co: Vec<_> =
-        r.main.iter().filter_map(|(_, o)| if let Outcome::Coupling(s) = o { Some(s.as_ref()) } else { None }).collect();
-    reservoir::coupling(&mut md, &co, Some(dir))?;
-    reservoir::hoap2(&mut md, &co, Some(dir))?;
-    for c in &co {
-        export_amc(c, dir)?;
+    let ctx = context();
+    let main: Vec<&Outcome> = r.main.iter().map(|(_, o)| o).collect();
+    for s in Outcome::sections(&main, &ctx)? {
+        md.section(&s, Some(dir))?;
     }
     if let Some(f) = &r.families {
-        families::section(&mut md, f, dir)?;
+        md.section(&f.section(&ctx), Some(dir))?;
     }
     md.line("## This run");
     md.blank();
@@ -451,18 +445,9 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
     Ok(md.0)
 }
 
-/// The last 10 s of an E6 run as AMC, for any ASF/AMC viewer.
-fn export_amc(c: &experiment::coupling::CouplingResult, dir: &Path) -> anyhow::Result<()> {
-    let Some(m) = &c.trained else { return Ok(()) };
-    let Some(asf) = &m.skeleton_asf else { return Ok(()) };
-    let sk = cpg_mocap::parse_asf("skeleton of the model", asf.as_bytes())?;
-    let channels = m.outputs.iter().filter_map(|o| cpg_mocap::Channel::parse(&o.name)).collect();
-    let motion = cpg_mocap::Motion::new(channels, c.last10_units.clone(), m.provenance.sample_rate_hz)?;
-    std::fs::write(
-        dir.join(format!("{}_last10s.amc", reservoir::stem("e6", &c.header))),
-        cpg_mocap::write_amc(&sk, &motion)?,
-    )?;
-    Ok(())
+/// What the experiments' sections need to know of this checkout: paths are shown from its root.
+fn context() -> cpg_lab::experiment::doc::Context {
+    cpg_lab::experiment::doc::Context { root: Some(crate::root()) }
 }
 
 fn metrics(r: &Results, info: &RunInfo) -> anyhow::Result<String> {

@@ -4,9 +4,10 @@
 
 use cpg_lab::experiment::Outcome;
 use cpg_lab::experiment::claim::Claim;
+use cpg_lab::experiment::doc::{anchor, sources, value, verdict};
 use cpg_lab::experiment::families::FamiliesResult;
 
-use super::fmt::{Md, anchor, sources, value, verdict};
+use super::fmt::Md;
 
 fn link(heading: &str) -> String {
     format!("[↓](#{})", anchor(heading))
@@ -35,14 +36,14 @@ fn row(c: &Claim, section: &str) -> Vec<String> {
 }
 
 /// The summary table.
-pub fn summary(md: &mut Md, outcomes: &[(String, Outcome)], families: Option<&FamiliesResult>, headings: &Headings) {
+pub fn summary(md: &mut Md, outcomes: &[(String, Outcome)], families: Option<&FamiliesResult>) {
     let mut rows: Vec<Vec<String>> = Vec::new();
     for (_, o) in outcomes {
-        let h = super::reservoir::heading(o);
+        let h = o.experiment().heading();
         rows.extend(o.claims().iter().map(|c| row(c, &h)));
     }
     if let Some(f) = families {
-        rows.extend(f.claims.iter().map(|c| row(c, &headings.families)));
+        rows.extend(f.claims.iter().map(|c| row(c, FamiliesResult::HEADING)));
     }
     md.line("## Summary");
     md.blank();
@@ -53,11 +54,6 @@ pub fn summary(md: &mut Md, outcomes: &[(String, Outcome)], families: Option<&Fa
         "lllllll",
         &rows,
     );
-}
-
-/// The headings the summary links to.
-pub struct Headings {
-    pub families: String,
 }
 
 /// What was tried: every configuration run, its method, and how many seeds passed.
@@ -71,12 +67,7 @@ pub fn tried(md: &mut Md, runs: &[(String, Outcome)]) {
         .map(|(file, o)| {
             let h = o.header();
             let (p, n) = o.passed();
-            let what = match o {
-                Outcome::Stability(_) => "accurate after the long run",
-                Outcome::Frequency(_) => "every plateau passed",
-                Outcome::Gaits(_) => "both gaits and switches passed",
-                Outcome::Coupling(_) => "phase coupling kept",
-            };
+            let what = o.experiment().target();
             vec![
                 h.id.clone(),
                 format!("`{file}`"),

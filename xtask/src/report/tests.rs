@@ -13,8 +13,18 @@ use cpg_lab::measure::{Recovery, Rhythm, Stability, TeacherShape};
 use cpg_lab::prepare::SegmentCycle;
 use cpg_reservoir::Teacher;
 
+use cpg_lab::experiment::Experiment;
+use cpg_lab::experiment::doc::Context;
+
 use super::fmt::Md;
-use super::summary::{Headings, summary};
+use super::summary::summary;
+
+/// The text of an experiment's section, as the report writes it (no figures drawn).
+fn text<E: Experiment>(rs: &[&E]) -> String {
+    let mut md = Md::default();
+    md.section(&E::section(rs, &Context::default()).unwrap(), None).unwrap();
+    md.0
+}
 
 fn seed_model(seed: u64, penalty: f64) -> SeedModel {
     let curve: Vec<(f64, f64)> = (0..91).map(|k| (10f64.powf(1.0 - k as f64 / 10.0), 1.0 + k as f64 / 100.0)).collect();
@@ -212,9 +222,7 @@ fn golden(name: &str, text: &str) {
 #[test]
 fn the_e1_section_is_pinned() {
     let (paper, ours) = (stability("paper"), stability("ours"));
-    let mut md = Md::default();
-    super::reservoir::stability(&mut md, &[&paper, &ours], None).unwrap();
-    golden("e1_section.md", &md.0);
+    golden("e1_section.md", &text(&[&paper, &ours]));
 }
 
 #[test]
@@ -225,37 +233,31 @@ fn the_summary_table_is_pinned() {
         ("experiments/e4.toml".to_owned(), Outcome::Frequency(Box::new(frequency()))),
         ("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(gaits()))),
     ];
-    let headings = Headings { families: String::new() };
     let mut md = Md::default();
-    summary(&mut md, &outcomes, None, &headings);
+    summary(&mut md, &outcomes, None);
     golden("summary.md", &md.0);
 }
 
 #[test]
 fn every_verdict_is_printed_with_its_rule() {
     let (paper, ours) = (stability("paper"), stability("ours"));
-    let mut md = Md::default();
-    super::reservoir::stability(&mut md, &[&paper, &ours], None).unwrap();
+    let md = text(&[&paper, &ours]);
     for v in [ours.e1_verdict(), ours.e2_verdict(), ours.e3_verdict()] {
-        assert!(md.0.contains(&v.rule), "the E1–E3 section lacks the rule {:?}", v.rule);
+        assert!(md.contains(&v.rule), "the E1–E3 section lacks the rule {:?}", v.rule);
     }
     let f = frequency();
-    let mut md = Md::default();
-    super::reservoir::frequency(&mut md, &[&f], None).unwrap();
-    assert!(md.0.contains(&f.verdict().rule), "E4 rule missing");
+    assert!(text(&[&f]).contains(&f.verdict().rule), "E4 rule missing");
     let g = gaits();
-    let mut md = Md::default();
-    super::reservoir::gaits(&mut md, &[&g], None).unwrap();
-    assert!(md.0.contains(&g.verdict().rule), "E5 rule missing");
-    assert!(md.0.contains(&g.spike_verdict().rule), "E5 spike rule missing");
+    let md = text(&[&g]);
+    assert!(md.contains(&g.verdict().rule), "E5 rule missing");
+    assert!(md.contains(&g.spike_verdict().rule), "E5 spike rule missing");
 }
 
 #[test]
 fn a_decayed_run_has_no_period() {
     let paper = stability("paper");
-    let mut md = Md::default();
-    super::reservoir::stability(&mut md, &[&paper], None).unwrap();
-    let row = md.0.lines().find(|l| l.starts_with("| 2 |")).expect("seed 2's row");
+    let md = text(&[&paper]);
+    let row = md.lines().find(|l| l.starts_with("| 2 |")).expect("seed 2's row");
     assert!(row.contains("decayed at 412 s"), "{row}");
     assert!(!row.contains("| 0.00 |") && !row.contains("127."), "no period for a decayed run: {row}");
 }
@@ -266,13 +268,13 @@ fn a_verdict_decided_by_less_than_the_printed_digits_says_so() {
     let g = gaits_with(0.19666, true);
     let outcomes = vec![("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(g)))];
     let mut md = Md::default();
-    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    summary(&mut md, &outcomes, None);
     let row = md.0.lines().find(|l| l.contains("switched smoothly")).expect("the E5 row");
     assert!(row.contains("| reproduced (at the limit) |"), "{row}");
     let clear = gaits_with(0.17, false);
     let outcomes = vec![("experiments/e5.toml".to_owned(), Outcome::Gaits(Box::new(clear)))];
     let mut md = Md::default();
-    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    summary(&mut md, &outcomes, None);
     assert!(!md.0.contains("at the limit)"), "{}", md.0);
 }
 
@@ -283,7 +285,7 @@ fn the_summary_says_what_each_row_changes_against_the_paper() {
         ("experiments/e1.toml".to_owned(), Outcome::Stability(Box::new(stability("ours")))),
     ];
     let mut md = Md::default();
-    summary(&mut md, &outcomes, None, &Headings { families: String::new() });
+    summary(&mut md, &outcomes, None);
     let ours: Vec<&str> = md.0.lines().filter(|l| l.contains("| ours |")).collect();
     assert_eq!(ours.len(), 3, "{}", md.0);
     for row in ours {
@@ -334,9 +336,8 @@ fn medians_in_the_report_are_true_medians() {
     r.seeds[0].first_nmse = 0.02;
     r.seeds[1].first_nmse = 0.04;
     r.summarise();
-    let mut md = Md::default();
-    super::reservoir::stability(&mut md, &[&r], None).unwrap();
-    assert!(md.0.contains("| 0.0300 (0.0200–0.0400; n = 2) |"), "{}", md.0);
+    let md = text(&[&r]);
+    assert!(md.contains("| 0.0300 (0.0200–0.0400; n = 2) |"), "{md}");
 }
 
 #[test]

@@ -14,7 +14,7 @@
 
 use serde::Serialize;
 
-use crate::config::{Config, PushSection};
+use crate::config::{Config, ExperimentTest, PushSection};
 use crate::error::Result;
 
 /// One condition of a validation run or of a test.
@@ -202,41 +202,41 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
         }
     }
     let mut test = Vec::new();
-    if let Some(s) = &e.stability {
-        test.push(push(&s.push, 0.0, rate));
-        test.push(Condition::Window { from_s: 0.0, to_s: s.first_samples as f64 / rate });
-    }
-    if let Some(f) = &e.frequency {
-        let mut clock = 0.0;
-        for (k, &u) in f.plateaus.iter().enumerate() {
-            if k > 0 {
-                test.push(Condition::Switch { at_s: clock, ramp_s: f.ramp_s });
-                clock += f.ramp_s;
+    match &e.test {
+        ExperimentTest::Stability(s) => {
+            test.push(push(&s.push, 0.0, rate));
+            test.push(Condition::Window { from_s: 0.0, to_s: s.first_samples as f64 / rate });
+        }
+        ExperimentTest::Frequency(f) => {
+            let mut clock = 0.0;
+            for (k, &u) in f.plateaus.iter().enumerate() {
+                if k > 0 {
+                    test.push(Condition::Switch { at_s: clock, ramp_s: f.ramp_s });
+                    clock += f.ramp_s;
+                }
+                test.push(Condition::Plateau { u, hold_s: f.hold_s });
+                clock += f.hold_s;
             }
-            test.push(Condition::Plateau { u, hold_s: f.hold_s });
-            clock += f.hold_s;
-        }
-        for w in f.figure.windows(2) {
-            let ([t0, u0], [t1, u1]) = (w[0], w[1]);
-            if u0 == u1 {
-                test.push(Condition::Plateau { u: u0, hold_s: t1 - t0 });
-            } else {
-                test.push(Condition::Switch { at_s: t0, ramp_s: t1 - t0 });
+            for w in f.figure.windows(2) {
+                let ([t0, u0], [t1, u1]) = (w[0], w[1]);
+                if u0 == u1 {
+                    test.push(Condition::Plateau { u: u0, hold_s: t1 - t0 });
+                } else {
+                    test.push(Condition::Switch { at_s: t0, ramp_s: t1 - t0 });
+                }
             }
         }
-    }
-    if let Some(g) = &e.gaits {
-        for &at in &g.switch_at_s {
-            test.push(Condition::Switch { at_s: at, ramp_s: g.ramp_s });
-            test.push(Condition::Switch { at_s: at, ramp_s: 0.0 });
+        ExperimentTest::Gaits(g) => {
+            for &at in &g.switch_at_s {
+                test.push(Condition::Switch { at_s: at, ramp_s: g.ramp_s });
+                test.push(Condition::Switch { at_s: at, ramp_s: 0.0 });
+            }
+            test.push(Condition::Window {
+                from_s: (g.switch_at_s[0] - super::gaits::GAIT_WINDOW_S).max(0.0),
+                to_s: g.switch_at_s[0],
+            });
         }
-        test.push(Condition::Window {
-            from_s: (g.switch_at_s[0] - super::gaits::GAIT_WINDOW_S).max(0.0),
-            to_s: g.switch_at_s[0],
-        });
-    }
-    if e.coupling.is_some() {
-        test.push(Condition::Window { from_s: 0.0, to_s: 10.0 });
+        ExperimentTest::Coupling(_) => test.push(Condition::Window { from_s: 0.0, to_s: 10.0 }),
     }
     Ok(Conditions { validation, test })
 }

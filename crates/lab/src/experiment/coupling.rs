@@ -1,6 +1,8 @@
 //! E6: many outputs (the 22 HOAP-2 joints) and their phase coupling over a
 //! long free run (wyffels & Schrauwen 2009, Fig. 5).
 
+mod section;
+
 use serde::Serialize;
 
 use cpg_hoap2::{ChannelMap, ClampReport, JointTrajectory, Robot};
@@ -275,13 +277,13 @@ fn plan(c: &Config, k: &CouplingTestSection, opts: Options) -> Result<Plan> {
         prep.teachers.first().ok_or_else(|| Error::Unusable("E6 needs a looped (periodic) segment".into()))?;
     let p = teacher.cycle.len() / d;
     let refc = prep.outputs.iter().position(|o| o.name == k.reference).ok_or_else(|| {
-        c.error("experiment.coupling.reference", format!("'{}' is not a learnt channel", k.reference))
+        c.error("experiment.test.coupling.reference", format!("'{}' is not a learnt channel", k.reference))
     })?;
     let run_s = if opts.quick { k.quick_run_s } else { k.run_s };
     let n = (run_s * rate).round() as usize;
     let ten = (10.0 * rate) as usize;
     if n < 2 * ten {
-        return Err(c.error("experiment.coupling.run_s", "must be at least 20 s"));
+        return Err(c.error("experiment.test.coupling.run_s", "must be at least 20 s"));
     }
     Ok(Plan { c, k: k.clone(), seeds, prep, d, p, refc, n, ten })
 }
@@ -400,18 +402,18 @@ fn finish(
     };
     let from = ((500.0 * rate) as usize).min(n - ten);
     let data = prep.segments.first().cloned().unwrap_or_default();
-    let portraits =
-        k.portraits
-            .iter()
-            .map(|name| {
-                let ch = names.iter().position(|x| x == name).ok_or_else(|| {
-                    c.error("experiment.coupling.portraits", format!("'{name}' is not a learnt channel"))
-                })?;
-                let dp = data.chunks_exact(d).map(|f| (f[refc], f[ch])).collect();
-                let mp = (from..from + ten).map(|q| (y[q * d + refc], y[q * d + ch])).collect();
-                Ok(Portrait { channel: name.clone(), data: dp, model: mp })
-            })
-            .collect::<Result<Vec<_>>>()?;
+    let portraits = k
+        .portraits
+        .iter()
+        .map(|name| {
+            let ch = names.iter().position(|x| x == name).ok_or_else(|| {
+                c.error("experiment.test.coupling.portraits", format!("'{name}' is not a learnt channel"))
+            })?;
+            let dp = data.chunks_exact(d).map(|f| (f[refc], f[ch])).collect();
+            let mp = (from..from + ten).map(|q| (y[q * d + refc], y[q * d + ch])).collect();
+            Ok(Portrait { channel: name.clone(), data: dp, model: mp })
+        })
+        .collect::<Result<Vec<_>>>()?;
     let deviation_over_time = deviation_over_time(prep, &y, n, ten, p, refc);
     let mut r = CouplingResult {
         header: header(c, prep, m.reservoir.n_neurons())?,
@@ -672,4 +674,26 @@ fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Re
     };
     let (Some(l), Some(r)) = (path("ltibia"), path("rtibia")) else { return Ok((None, scale)) };
     Ok((cpg_hoap2::gait(&l, &r, rate, 2, 1), scale))
+}
+
+impl super::Experiment for CouplingResult {
+    fn figure(&self) -> &'static str {
+        "Fig. 5"
+    }
+    super::common_accessors!();
+    fn passed(&self) -> (usize, usize) {
+        (self.n_passed(), self.seeds.len())
+    }
+    fn target(&self) -> &'static str {
+        "phase coupling kept"
+    }
+    fn section(all: &[&Self], ctx: &super::doc::Context) -> Result<super::doc::Section> {
+        let mut s = super::doc::Section::default();
+        section::coupling(&mut s, all, ctx);
+        section::hoap2(&mut s, all);
+        for r in all {
+            section::last_10_s(&mut s, r)?;
+        }
+        Ok(s)
+    }
 }

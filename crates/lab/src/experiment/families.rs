@@ -3,6 +3,8 @@
 //! and the rhythmic DMP, evaluated with the reservoir CPG on the same marker
 //! positions and by the same perturbation measure.
 
+mod section;
+
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -364,27 +366,21 @@ impl FamiliesResult {
     }
 
     fn make_claims(&self) -> Vec<Claim> {
-        let seg = &self.segmented;
-        let whole = |m: usize, n: usize| {
-            seg.rows.iter().find(|r| r.spec.centers == m && r.spec.satellites == n).map(|r| r.whole.mean_mm)
-        };
-        let claim = |c: &str, sources: Vec<Source>, measured: Vec<Measure>, verdict: Verdict| {
-            Claim {
-            experiment: "Centralized".into(),
-            claim: c.into(),
-            sources,
-            protocol: "reconstructed".into(),
-            differs: vec!["the method is reconstructed from captions and Table 1 (shared/research/methods.md); subject 35's walk and run instead of 86_01".into()],
-            measured,
-            verdict,
-        }
-        };
-        let mut out = Vec::new();
-        // 1. The error falls with the satellites (two centers, Table 1's rows).
+        vec![self.falls_claim(), self.centers_claim(), self.aicc_claim(), self.dmp_claim(), self.table1_claim()]
+    }
+
+    /// The whole-sequence error of `m` centers / `n` satellites on the segmented sequence.
+    fn whole(&self, m: usize, n: usize) -> Option<f64> {
+        self.segmented.rows.iter().find(|r| r.spec.centers == m && r.spec.satellites == n).map(|r| r.whole.mean_mm)
+    }
+
+    /// 1. The error falls with the satellites (two centers, Table 1's rows).
+    fn falls_claim(&self) -> Claim {
+        let whole = |m: usize, n: usize| self.whole(m, n);
         let ns_two: Vec<(usize, f64)> = [25, 50, 100].iter().filter_map(|&n| whole(2, n).map(|e| (n, e))).collect();
         let falls = ns_two.len() == 3 && ns_two.windows(2).all(|w| w[1].1 <= w[0].1 * 1.05);
         let falls_close = ns_two.windows(2).any(|w| crate::stats::at_limit(w[1].1, w[0].1 * 1.05, 1));
-        out.push(claim(
+        claim(
             "with two centers the error falls as satellites are added",
             vec![
                 Source::Quote(claim::TABLE1_CAPTION),
@@ -392,9 +388,13 @@ impl FamiliesResult {
             ],
             ns_two.iter().map(|(n, e)| Measure::number(format!("segmented sequence, 2 centers / {n} satellites: whole-sequence error"), *e, "mm", 1)).collect(),
             Verdict::new(falls, falls_close, "on the segmented walk/run sequence, the whole-sequence mean 3-D error of 2 centers with 25, 50 and 100 satellites never rises by more than 5 % from one to the next"),
-        ));
-        // 2. 2–3 centers beat 1.
-        let one = whole(1, 100);
+        )
+    }
+
+    /// 2. 2–3 centers beat 1.
+    fn centers_claim(&self) -> Claim {
+        let seg = &self.segmented;
+        let one = self.whole(1, 100);
         let best23 =
             seg.rows.iter().filter(|r| r.spec.centers >= 2).min_by(|a, b| a.whole.mean_mm.total_cmp(&b.whole.mean_mm));
         let beats = matches!((one, best23), (Some(o), Some(b)) if b.whole.mean_mm < 0.8 * o);
@@ -412,30 +412,54 @@ impl FamiliesResult {
                 1,
             ));
         }
-        out.push(claim(
+        claim(
             "2–3 centers are needed (1 is much worse)",
             vec![
-                Source::Inferred { text: "Table 1: one oscillator with 100 satellites is less accurate than two with 50 in every segment".into() },
+                Source::Inferred {
+                    text:
+                        "Table 1: one oscillator with 100 satellites is less accurate than two with 50 in every segment"
+                            .into(),
+                },
                 Source::Quote(claim::AICC_OPTIMUM),
             ],
             m2,
-            Verdict::new(beats, beats_close, "on the segmented walk/run sequence, the best whole-sequence error with 2 or 3 centers is below 0.8 × the error of 1 center with 100 satellites"),
-        ));
-        // 3. AICc prefers more than one center, inside the grid.
+            Verdict::new(
+                beats,
+                beats_close,
+                "on the segmented walk/run sequence, the best whole-sequence error with 2 or 3 centers is below 0.8 × the error of 1 center with 100 satellites",
+            ),
+        )
+    }
+
+    /// 3. AICc prefers more than one center, inside the grid.
+    fn aicc_claim(&self) -> Claim {
         let ns = &self.non_segmented;
         let sm = &self.summary;
         let inside = !sm.aicc_at_edge;
-        out.push(claim(
+        claim(
             "AICc's optimum has more than one center",
             vec![Source::Quote(claim::AICC_OPTIMUM)],
             vec![
-                Measure::text("AICc's pick on the non-segmented walk", format!("{} center(s) / {} satellites", ns.aicc_best.centers, ns.aicc_best.satellites)),
-                Measure::text("satellites searched", format!("{} to {}", sm.sizes.first().copied().unwrap_or(0), sm.sizes.last().copied().unwrap_or(0))),
+                Measure::text(
+                    "AICc's pick on the non-segmented walk",
+                    format!("{} center(s) / {} satellites", ns.aicc_best.centers, ns.aicc_best.satellites),
+                ),
+                Measure::text(
+                    "satellites searched",
+                    format!("{} to {}", sm.sizes.first().copied().unwrap_or(0), sm.sizes.last().copied().unwrap_or(0)),
+                ),
                 Measure::text("the pick is at the grid's largest size", if sm.aicc_at_edge { "yes" } else { "no" }),
             ],
-            Verdict::new(ns.aicc_best.centers >= 2 && inside, false, "over the non-segmented grid, the AICc minimum has 2 or 3 centers and lies below the grid's largest satellite count (a minimum at the edge says only that AICc still falls there)"),
-        ));
-        // 4. 2/16 beats the DMP (body frame, the trial each was fitted on).
+            Verdict::new(
+                ns.aicc_best.centers >= 2 && inside,
+                false,
+                "over the non-segmented grid, the AICc minimum has 2 or 3 centers and lies below the grid's largest satellite count (a minimum at the edge says only that AICc still falls there)",
+            ),
+        )
+    }
+
+    /// 4. 2/16 beats the DMP (body frame, the trial each was fitted on).
+    fn dmp_claim(&self) -> Claim {
         let g = &self.generalisation.rows;
         let find = |name: &str| g.iter().find(|r| r.model == name).map(|r| r.fitted.mean_mm);
         let (c216, dt, dc) = (find(GEN_2_16), find(GEN_DMP_TRIAL), find(GEN_DMP_CYCLE));
@@ -448,17 +472,21 @@ impl FamiliesResult {
                 m4.push(Measure::number(format!("{label}, on the trial it learnt (body frame)"), v, "mm", 1));
             }
         }
-        out.push(claim(
+        claim(
             "2 centers / 16 satellites beat the rhythmic DMP",
             vec![Source::Quote(claim::FIG15_AVERAGES)],
             m4,
             Verdict::new(
                 c216.is_some_and(|v| v < dmp_best),
                 c216.is_some_and(|v| crate::stats::at_limit(v, dmp_best, 1)),
-                "the mean 3-D error of 2 centers / 16 satellites on the trial it was fitted on (body frame) is below the better of the two DMPs (the trial as one period, or one cycle repeated)"),
-        ));
-        // 5. Table 1 itself.
-        out.push(match &self.paper {
+                "the mean 3-D error of 2 centers / 16 satellites on the trial it was fitted on (body frame) is below the better of the two DMPs (the trial as one period, or one cycle repeated)",
+            ),
+        )
+    }
+
+    /// 5. Table 1 itself.
+    fn table1_claim(&self) -> Claim {
+        match &self.paper {
             Some(t) => {
                 let row = |m: usize, n: usize| t.rows.iter().find(|r| r.spec.centers == m && r.spec.satellites == n);
                 let ok = match (row(2, 100), row(1, 100)) {
@@ -468,8 +496,15 @@ impl FamiliesResult {
                 claim(
                     "Table 1 on CMU 86_01: 2 centers / 100 satellites beat 1 / 100 in every segment",
                     vec![Source::Quote(claim::TABLE1_CAPTION)],
-                    vec![Measure::text("rows × segments", format!("{} × {}", t.rows.len(), t.starts.len().saturating_sub(1)))],
-                    Verdict::new(ok, false, "on 86_01 with the paper's segments, the integral relative accuracy of 2 centers / 100 satellites is below that of 1 center / 100 satellites in every segment, as in the paper's Table 1"),
+                    vec![Measure::text(
+                        "rows × segments",
+                        format!("{} × {}", t.rows.len(), t.starts.len().saturating_sub(1)),
+                    )],
+                    Verdict::new(
+                        ok,
+                        false,
+                        "on 86_01 with the paper's segments, the integral relative accuracy of 2 centers / 100 satellites is below that of 1 center / 100 satellites in every segment, as in the paper's Table 1",
+                    ),
                 )
             }
             None => claim(
@@ -479,13 +514,14 @@ impl FamiliesResult {
                     "data",
                     format!(
                         "not run: {} is not on this machine",
-                        std::path::Path::new(&self.paper_trial).file_name().map_or_else(|| self.paper_trial.clone(), |f| f.to_string_lossy().into_owned())
+                        std::path::Path::new(&self.paper_trial)
+                            .file_name()
+                            .map_or_else(|| self.paper_trial.clone(), |f| f.to_string_lossy().into_owned())
                     ),
                 )],
                 Verdict::not_run("runs when data/cmu86/86_01.amc is present"),
             ),
-        });
-        out
+        }
     }
 }
 
@@ -656,7 +692,7 @@ fn run_here(
         None => {
             let mut c = Config::load(&f.reservoir)?;
             if opts.quick
-                && let Some(k) = c.experiment.as_ref().and_then(|e| e.coupling.as_ref())
+                && let Some(k) = c.experiment.as_ref().and_then(|e| e.coupling())
             {
                 c.reservoir.n_neurons = Some(k.quick_neurons);
             }
@@ -938,4 +974,30 @@ fn perturbation(f: &FamiliesSection, opts: Options, progress: &dyn Progress) -> 
         (a, b),
     )?;
     Ok(Perturbation { channel: o.name.clone(), period_frames: p, held, at, hold, center_hz, rows, kick })
+}
+
+/// A claim of the family comparison.
+fn claim(c: &str, sources: Vec<Source>, measured: Vec<Measure>, verdict: Verdict) -> Claim {
+    Claim {
+        experiment: "Centralized".into(),
+        claim: c.into(),
+        sources,
+        protocol: "reconstructed".into(),
+        differs: vec!["the method is reconstructed from captions and Table 1 (shared/research/methods.md); subject 35's walk and run instead of 86_01".into()],
+        measured,
+        verdict,
+    }
+}
+
+impl FamiliesResult {
+    /// The section's heading (the summary links to it).
+    pub const HEADING: &'static str =
+        "Centralized networks and rhythmic DMPs (Vakulenko et al. 2017) beside the reservoir CPG";
+
+    /// The report's section of the comparison, built from the results alone.
+    pub fn section(&self, ctx: &super::doc::Context) -> super::doc::Section {
+        let mut s = super::doc::Section::default();
+        section::section(&mut s, self, ctx);
+        s
+    }
 }

@@ -1,5 +1,7 @@
 //! E4: frequency modulation by a control input (wyffels & Schrauwen 2009, Fig. 3).
 
+mod section;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -226,7 +228,7 @@ pub fn run(c: &Config, f: &FrequencySection, opts: Options, progress: &dyn Progr
         return Err(c.error("data.controls", "a frequency experiment has exactly one control input"));
     }
     if f.plateaus.is_empty() {
-        return Err(c.error("experiment.frequency.plateaus", "is empty"));
+        return Err(c.error("experiment.test.frequency.plateaus", "is empty"));
     }
     let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
     let rate = c.data.rate_hz;
@@ -307,4 +309,22 @@ pub fn run(c: &Config, f: &FrequencySection, opts: Options, progress: &dyn Progr
     };
     r.summarise();
     Ok(r)
+}
+
+impl super::Experiment for FrequencyResult {
+    fn figure(&self) -> &'static str {
+        "Fig. 3"
+    }
+    super::common_accessors!();
+    fn passed(&self) -> (usize, usize) {
+        (self.seeds.iter().filter(|s| s.passed).count(), self.seeds.len())
+    }
+    fn target(&self) -> &'static str {
+        "every plateau passed"
+    }
+    fn section(all: &[&Self], ctx: &super::doc::Context) -> Result<super::doc::Section> {
+        let mut s = super::doc::Section::default();
+        section::frequency(&mut s, all, ctx);
+        Ok(s)
+    }
 }

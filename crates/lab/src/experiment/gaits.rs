@@ -1,6 +1,8 @@
 //! E5: switching between two learnt gaits with two control inputs
 //! (wyffels & Schrauwen 2009, Fig. 4).
 
+mod section;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -215,49 +217,75 @@ fn last_control(s: &ControlSchedule, n: usize, rate: f64) -> Vec<f64> {
     if u == 0 { Vec::new() } else { column(&s.rows(n, rate), u, u - 1) }
 }
 
-/// Runs E5 on configuration `c`.
-pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress) -> Result<GaitsResult> {
-    let seeds = seeds(c, opts)?;
-    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
-    if prep.teachers.len() != 2 {
-        return Err(c.error("data.segments", format!("E5 needs two looped gaits; there are {}", prep.teachers.len())));
+/// What judging a seed's switching runs needs: the two gaits, the test's
+/// schedules and sizes.
+struct Switching<'a> {
+    teachers: [&'a cpg_reservoir::Teacher; 2],
+    shapes: [TeacherShape; 2],
+    smooth: ControlSchedule,
+    abrupt: ControlSchedule,
+    g: &'a GaitsSection,
+    rate: f64,
+    d: usize,
+    n: usize,
+    /// The largest frame-to-frame step of the teachers' cycles.
+    data_step: f64,
+}
+
+impl<'a> Switching<'a> {
+    fn new(c: &Config, g: &'a GaitsSection, prep: &'a crate::prepare::Prepared) -> Result<Switching<'a>> {
+        if prep.teachers.len() != 2 {
+            return Err(
+                c.error("data.segments", format!("E5 needs two looped gaits; there are {}", prep.teachers.len()))
+            );
+        }
+        let rate = c.data.rate_hz;
+        let d = prep.outputs.len();
+        let (ta, tb) = (&prep.teachers[0], &prep.teachers[1]);
+        let [s1, s2] = g.switch_at_s;
+        if !(0.0 < s1 && s1 + g.ramp_s < s2 && s2 + g.ramp_s < g.run_s && s1 >= GAIT_WINDOW_S) {
+            return Err(c.error(
+                "experiment.test.gaits",
+                "needs 3 s <= first switch < second switch < run_s, with room for the ramps",
+            ));
+        }
+        let knots = |ramp: f64| {
+            ControlSchedule::Knots(vec![
+                (0.0, ta.controls.clone()),
+                (s1, ta.controls.clone()),
+                (s1 + ramp, tb.controls.clone()),
+                (s2, tb.controls.clone()),
+                (s2 + ramp, ta.controls.clone()),
+            ])
+        };
+        let tiled = |t: &cpg_reservoir::Teacher| {
+            let p = t.cycle.len() / d;
+            (0..p + 1).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
+        };
+        Ok(Switching {
+            teachers: [ta, tb],
+            shapes: [TeacherShape::of(ta, d), TeacherShape::of(tb, d)],
+            smooth: knots(g.ramp_s),
+            abrupt: knots(0.0),
+            g,
+            rate,
+            d,
+            n: (g.run_s * rate).round() as usize,
+            data_step: max_step(&tiled(ta), d).max(max_step(&tiled(tb), d)),
+        })
     }
-    let rate = c.data.rate_hz;
-    let d = prep.outputs.len();
-    let (ta, tb) = (&prep.teachers[0], &prep.teachers[1]);
-    let [s1, s2] = g.switch_at_s;
-    if !(0.0 < s1 && s1 + g.ramp_s < s2 && s2 + g.ramp_s < g.run_s && s1 >= GAIT_WINDOW_S) {
-        return Err(
-            c.error("experiment.gaits", "needs 3 s <= first switch < second switch < run_s, with room for the ramps")
-        );
+
+    /// The step at `s` seconds, within the run.
+    fn at(&self, s: f64) -> usize {
+        ((s * self.rate).round() as usize).min(self.n)
     }
-    let smooth = ControlSchedule::Knots(vec![
-        (0.0, ta.controls.clone()),
-        (s1, ta.controls.clone()),
-        (s1 + g.ramp_s, tb.controls.clone()),
-        (s2, tb.controls.clone()),
-        (s2 + g.ramp_s, ta.controls.clone()),
-    ]);
-    let abrupt = ControlSchedule::Knots(vec![
-        (0.0, ta.controls.clone()),
-        (s1, ta.controls.clone()),
-        (s1, tb.controls.clone()),
-        (s2, tb.controls.clone()),
-        (s2, ta.controls.clone()),
-    ]);
-    let n = (g.run_s * rate).round() as usize;
-    let at = |s: f64| ((s * rate).round() as usize).min(n);
-    let tiled = |t: &cpg_reservoir::Teacher| {
-        let p = t.cycle.len() / d;
-        (0..p + 1).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
-    };
-    let data_step = max_step(&tiled(ta), d).max(max_step(&tiled(tb), d));
-    let shapes = [TeacherShape::of(ta, d), TeacherShape::of(tb, d)];
-    let window = |y: &[f64], end_s: f64, k: usize| -> GaitWindow {
-        let t = [ta, tb][k];
-        let w = &y[at(end_s - GAIT_WINDOW_S) * d..at(end_s) * d];
-        let r = rhythm(w, d, t, 0);
-        let sh = &shapes[k];
+
+    /// The rhythm of `y` in the window ending at `end_s`, against gait `k`.
+    fn window(&self, y: &[f64], end_s: f64, k: usize) -> GaitWindow {
+        let d = self.d;
+        let w = &y[self.at(end_s - GAIT_WINDOW_S) * d..self.at(end_s) * d];
+        let r = rhythm(w, d, self.teachers[k], 0);
+        let sh = &self.shapes[k];
         let amplitude_ratio = r
             .amplitude
             .iter()
@@ -276,7 +304,77 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
             passed,
             at_limit,
         }
-    };
+    }
+
+    /// Seed `seed`'s model run through both switching schedules and judged;
+    /// with the smooth and the abrupt run.
+    fn judge(&self, m: &cpg_reservoir::TrainedCpg, seed: u64) -> Result<(GaitsSeed, Vec<f64>, Vec<f64>)> {
+        let (d, g, rate) = (self.d, self.g, self.rate);
+        let [s1, s2] = g.switch_at_s;
+        let [ta, tb] = self.teachers;
+        let ys = free_run(m, &self.smooth, self.n, None)?;
+        let ya = free_run(m, &self.abrupt, self.n, None)?;
+        let first = self.window(&ys, s1, 0);
+        let second = self.window(&ys, s2, 1);
+        let first_again = self.window(&ys, g.run_s, 0);
+        let settle = [
+            settle_on_orbit(&ys[..self.at(s2) * d], d, &tb.cycle, self.at(s1), rate),
+            settle_on_orbit(&ys, d, &ta.cycle, self.at(s2), rate),
+        ];
+        let jump = |y: &[f64], s: f64| max_step(&y[self.at(s) * d..self.at(s + SWITCH_WINDOW_S) * d], d);
+        let max_jump_smooth = jump(&ys, s1).max(jump(&ys, s2));
+        let max_jump_abrupt = jump(&ya, s1).max(jump(&ya, s2));
+        // Each part of the rule: (held, decided by less than the printed digits).
+        let parts = [
+            (first.passed, first.at_limit),
+            (second.passed, second.at_limit),
+            (first_again.passed, first_again.at_limit),
+            (settle[0].is_some_and(|v| v <= SETTLE_S), settle[0].is_some_and(|v| at_limit(v, SETTLE_S, 2))),
+            (settle[1].is_some_and(|v| v <= SETTLE_S), settle[1].is_some_and(|v| at_limit(v, SETTLE_S, 2))),
+            (max_jump_smooth <= self.data_step, at_limit(max_jump_smooth, self.data_step, 3)),
+        ];
+        let passed = parts.iter().all(|p| p.0);
+        let at_limit_seed = if passed { parts.iter().any(|p| p.1) } else { parts.iter().filter(|p| !p.0).all(|p| p.1) };
+        let seed = GaitsSeed {
+            model: SeedModel::of(m, seed),
+            first,
+            second,
+            first_again,
+            settle_s: settle,
+            max_jump_smooth,
+            max_jump_abrupt,
+            passed,
+            at_limit: at_limit_seed,
+        };
+        Ok((seed, ys, ya))
+    }
+
+    /// Figure 4's traces: the teachers, the smooth and the abrupt run.
+    fn figure(&self, ys: &[f64], ya: &[f64]) -> Fig4 {
+        let (d, rate) = (self.d, self.rate);
+        let three = (GAIT_WINDOW_S * rate) as usize;
+        Fig4 {
+            teachers: self
+                .teachers
+                .iter()
+                .map(|t| {
+                    let p = t.cycle.len() / d;
+                    (t.label.clone(), (0..three).map(|k| t.cycle[(k % p) * d]).collect())
+                })
+                .collect(),
+            smooth: column(ys, d, 0),
+            abrupt: column(ya, d, 0),
+            smooth_control: last_control(&self.smooth, self.n, rate),
+            abrupt_control: last_control(&self.abrupt, self.n, rate),
+        }
+    }
+}
+
+/// Runs E5 on configuration `c`.
+pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress) -> Result<GaitsResult> {
+    let seeds = seeds(c, opts)?;
+    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
+    let sw = Switching::new(c, g, &prep)?;
     let robot = match &g.robot {
         Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
         None => None,
@@ -289,50 +387,13 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
         .zip(&models)
         .enumerate()
         .map(|(i, (&seed, m))| {
-            let ys = free_run(m, &smooth, n, None)?;
-            let ya = free_run(m, &abrupt, n, None)?;
-            let first = window(&ys, s1, 0);
-            let second = window(&ys, s2, 1);
-            let first_again = window(&ys, g.run_s, 0);
-            let settle = [
-                settle_on_orbit(&ys[..at(s2) * d], d, &tb.cycle, at(s1), rate),
-                settle_on_orbit(&ys, d, &ta.cycle, at(s2), rate),
-            ];
-            let jump = |y: &[f64], s: f64| max_step(&y[at(s) * d..at(s + SWITCH_WINDOW_S) * d], d);
-            let max_jump_smooth = jump(&ys, s1).max(jump(&ys, s2));
-            let max_jump_abrupt = jump(&ya, s1).max(jump(&ya, s2));
-            // Each part of the rule: (held, decided by less than the printed digits).
-            let parts = [
-                (first.passed, first.at_limit),
-                (second.passed, second.at_limit),
-                (first_again.passed, first_again.at_limit),
-                (settle[0].is_some_and(|v| v <= SETTLE_S), settle[0].is_some_and(|v| at_limit(v, SETTLE_S, 2))),
-                (settle[1].is_some_and(|v| v <= SETTLE_S), settle[1].is_some_and(|v| at_limit(v, SETTLE_S, 2))),
-                (max_jump_smooth <= data_step, at_limit(max_jump_smooth, data_step, 3)),
-            ];
-            let passed = parts.iter().all(|p| p.0);
-            let at_limit_seed =
-                if passed { parts.iter().any(|p| p.1) } else { parts.iter().filter(|p| !p.0).all(|p| p.1) };
+            let (judged, ys, ya) = sw.judge(m, seed)?;
             let fig = if i == 0 {
-                let three = (GAIT_WINDOW_S * rate) as usize;
-                let fig4 = Fig4 {
-                    teachers: [ta, tb]
-                        .iter()
-                        .map(|t| {
-                            let p = t.cycle.len() / d;
-                            (t.label.clone(), (0..three).map(|k| t.cycle[(k % p) * d]).collect())
-                        })
-                        .collect(),
-                    smooth: column(&ys, d, 0),
-                    abrupt: column(&ya, d, 0),
-                    smooth_control: last_control(&smooth, n, rate),
-                    abrupt_control: last_control(&abrupt, n, rate),
-                };
                 let units = cpg_reservoir::to_units(&m.outputs, &ys);
                 let view = crate::scene::run_scene(
                     &super::view_title(c),
                     m,
-                    &smooth,
+                    &sw.smooth,
                     0,
                     &units,
                     robot.as_ref().map(|(r, map)| crate::scene::RobotView {
@@ -341,25 +402,12 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
                         acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
                     }),
                 )?;
-                Some((fig4, view))
+                Some((sw.figure(&ys, &ya), view))
             } else {
                 None
             };
             progress.tick();
-            Ok((
-                GaitsSeed {
-                    model: SeedModel::of(m, seed),
-                    first,
-                    second,
-                    first_again,
-                    settle_s: settle,
-                    max_jump_smooth,
-                    max_jump_abrupt,
-                    passed,
-                    at_limit: at_limit_seed,
-                },
-                (column(&ys, d, 0), fig),
-            ))
+            Ok((judged, (column(&ys, sw.d, 0), fig)))
         })
         .collect();
     progress.finish();
@@ -371,8 +419,8 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
     let smooth_runs = per_seed.iter().map(|(_, (y, _))| y.clone()).collect();
     let mut r = GaitsResult {
         header: header(c, &prep, models[0].reservoir.n_neurons())?,
-        teachers: shapes.to_vec(),
-        data_step,
+        teachers: sw.shapes.to_vec(),
+        data_step: sw.data_step,
         switch_at_s: g.switch_at_s,
         ramp_s: g.ramp_s,
         run_s: g.run_s,
@@ -385,4 +433,22 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
     };
     r.summarise();
     Ok(r)
+}
+
+impl super::Experiment for GaitsResult {
+    fn figure(&self) -> &'static str {
+        "Fig. 4"
+    }
+    super::common_accessors!();
+    fn passed(&self) -> (usize, usize) {
+        (self.seeds.iter().filter(|s| s.passed).count(), self.seeds.len())
+    }
+    fn target(&self) -> &'static str {
+        "both gaits and switches passed"
+    }
+    fn section(all: &[&Self], ctx: &super::doc::Context) -> Result<super::doc::Section> {
+        let mut s = super::doc::Section::default();
+        section::gaits(&mut s, all, ctx);
+        Ok(s)
+    }
 }

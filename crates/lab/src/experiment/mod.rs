@@ -6,6 +6,7 @@ pub mod claim;
 pub mod conditions;
 pub mod coupling;
 pub mod differs;
+pub mod doc;
 pub mod families;
 pub mod frequency;
 pub mod gaits;
@@ -14,7 +15,7 @@ pub mod stability;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::config::{Config, ExperimentSection};
+use crate::config::{Config, ExperimentSection, ExperimentTest};
 use crate::error::Result;
 use crate::prepare::{Prepared, SegmentCycle, prepare};
 use crate::train::{penalty_at_edge, train_prepared};
@@ -223,6 +224,58 @@ pub(crate) fn view_title(c: &Config) -> String {
     }
 }
 
+/// The [`Experiment`] accessors of a result whose fields have the common
+/// names: `header`, `claims`, `table`, and `seeds` each with its `model`.
+macro_rules! common_accessors {
+    () => {
+        fn header(&self) -> &$crate::experiment::Header {
+            &self.header
+        }
+        fn claims(&self) -> &[$crate::experiment::Claim] {
+            &self.claims
+        }
+        fn table(&self) -> &[$crate::experiment::Measure] {
+            &self.table
+        }
+        fn seed_models(&self) -> Vec<&$crate::experiment::SeedModel> {
+            self.seeds.iter().map(|s| &s.model).collect()
+        }
+    };
+}
+pub(crate) use common_accessors;
+
+/// What every experiment's result is: a heading, claims (each with its
+/// measured aggregates, rule and verdict), a count of the seeds that met
+/// its target, and its section of the report, built from the results alone
+/// (every protocol of the experiment side by side). A new kind of
+/// experiment is a module with its result type implementing this, and a
+/// variant of [`Outcome`]; the compiler points to every place that
+/// dispatches over the kinds.
+pub trait Experiment {
+    /// Which figure of the paper the section reproduces (`Fig. 2`).
+    fn figure(&self) -> &'static str;
+    /// The header: what the configuration is and how it was validated.
+    fn header(&self) -> &Header;
+    /// The claims it measured, in report order.
+    fn claims(&self) -> &[Claim];
+    /// Its other aggregates, shown beside the claims.
+    fn table(&self) -> &[Measure];
+    /// How each seed's model was trained (its penalty and validation curve).
+    fn seed_models(&self) -> Vec<&SeedModel>;
+    /// Seeds that met the experiment's target, and seeds run.
+    fn passed(&self) -> (usize, usize);
+    /// What meeting the target means, for the table of what was tried.
+    fn target(&self) -> &'static str;
+    /// The section of the report for every protocol of this experiment.
+    fn section(all: &[&Self], ctx: &doc::Context) -> Result<doc::Section>
+    where
+        Self: Sized;
+    /// The section's heading (the summary links to it).
+    fn heading(&self) -> String {
+        doc::section_heading(self.header(), self.figure())
+    }
+}
+
 /// The results of one experiment configuration.
 #[derive(Debug, Clone, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -238,34 +291,66 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// The result as an [`Experiment`].
+    pub fn experiment(&self) -> &dyn Experiment {
+        match self {
+            Outcome::Stability(r) => r.as_ref(),
+            Outcome::Frequency(r) => r.as_ref(),
+            Outcome::Gaits(r) => r.as_ref(),
+            Outcome::Coupling(r) => r.as_ref(),
+        }
+    }
+
     /// The header.
     pub fn header(&self) -> &Header {
-        match self {
-            Outcome::Stability(r) => &r.header,
-            Outcome::Frequency(r) => &r.header,
-            Outcome::Gaits(r) => &r.header,
-            Outcome::Coupling(r) => &r.header,
-        }
+        self.experiment().header()
     }
 
     /// The claims it measured, in report order.
     pub fn claims(&self) -> &[Claim] {
-        match self {
-            Outcome::Stability(r) => &r.claims,
-            Outcome::Frequency(r) => &r.claims,
-            Outcome::Gaits(r) => &r.claims,
-            Outcome::Coupling(r) => &r.claims,
-        }
+        self.experiment().claims()
     }
 
     /// Seeds that met the experiment's target, and seeds run.
     pub fn passed(&self) -> (usize, usize) {
-        match self {
-            Outcome::Stability(r) => (r.seeds.iter().filter(|s| s.stability.accurate).count(), r.seeds.len()),
-            Outcome::Frequency(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
-            Outcome::Gaits(r) => (r.seeds.iter().filter(|s| s.passed).count(), r.seeds.len()),
-            Outcome::Coupling(r) => (r.n_passed(), r.seeds.len()),
+        self.experiment().passed()
+    }
+
+    /// The report's sections of `all`: one per kind of experiment, in the
+    /// order the kinds first appear, each with every configuration of that
+    /// kind side by side.
+    pub fn sections(all: &[&Outcome], ctx: &doc::Context) -> Result<Vec<doc::Section>> {
+        fn pick<'a, T>(all: &[&'a Outcome], f: impl Fn(&'a Outcome) -> Option<&'a T>) -> Vec<&'a T> {
+            all.iter().filter_map(|o| f(o)).collect()
         }
+        let mut done: Vec<std::mem::Discriminant<Outcome>> = Vec::new();
+        let mut out = Vec::new();
+        for o in all {
+            let kind = std::mem::discriminant(*o);
+            if done.contains(&kind) {
+                continue;
+            }
+            done.push(kind);
+            out.push(match o {
+                Outcome::Stability(_) => stability::StabilityResult::section(
+                    &pick(all, |x| if let Outcome::Stability(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+                Outcome::Frequency(_) => frequency::FrequencyResult::section(
+                    &pick(all, |x| if let Outcome::Frequency(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+                Outcome::Gaits(_) => gaits::GaitsResult::section(
+                    &pick(all, |x| if let Outcome::Gaits(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+                Outcome::Coupling(_) => coupling::CouplingResult::section(
+                    &pick(all, |x| if let Outcome::Coupling(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+            });
+        }
+        Ok(out)
     }
 }
 
@@ -341,7 +426,7 @@ pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
 /// that [`run_together`] can advance their long free runs in one pass.
 pub fn share_reservoirs(a: &Config, b: &Config) -> bool {
     match (a.experiment.as_ref(), b.experiment.as_ref()) {
-        (Some(x), Some(y)) => match (&x.coupling, &y.coupling) {
+        (Some(x), Some(y)) => match (x.coupling(), y.coupling()) {
             (Some(kx), Some(ky)) => {
                 a.reservoir == b.reservoir
                     && x.seeds == y.seeds
@@ -369,7 +454,7 @@ fn run_together_here(cs: &[&Config], opts: Options, progress: &dyn Progress) -> 
     let items = cs
         .iter()
         .map(|c| {
-            let k = section(c)?.coupling.as_ref().ok_or_else(|| c.error("experiment.coupling", "missing"))?;
+            let k = section(c)?.coupling().ok_or_else(|| c.error("experiment.test.coupling", "missing"))?;
             Ok((*c, k))
         })
         .collect::<Result<Vec<_>>>()?;
@@ -382,17 +467,12 @@ pub fn run(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome
 }
 
 fn run_here(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcome> {
-    let e = section(c)?;
-    match (&e.stability, &e.frequency, &e.gaits, &e.coupling) {
-        (Some(s), None, None, None) => Ok(Outcome::Stability(Box::new(stability::run(c, s, opts, progress)?))),
-        (None, Some(f), None, None) => Ok(Outcome::Frequency(Box::new(frequency::run(c, f, opts, progress)?))),
-        (None, None, Some(g), None) => Ok(Outcome::Gaits(Box::new(gaits::run(c, g, opts, progress)?))),
-        (None, None, None, Some(k)) => Ok(Outcome::Coupling(Box::new(coupling::run(c, k, opts, progress)?))),
-        _ => Err(c.error(
-            "experiment",
-            "needs exactly one of [experiment.stability], [experiment.frequency], [experiment.gaits], [experiment.coupling]",
-        )),
-    }
+    Ok(match &section(c)?.test {
+        ExperimentTest::Stability(s) => Outcome::Stability(Box::new(stability::run(c, s, opts, progress)?)),
+        ExperimentTest::Frequency(f) => Outcome::Frequency(Box::new(frequency::run(c, f, opts, progress)?)),
+        ExperimentTest::Gaits(g) => Outcome::Gaits(Box::new(gaits::run(c, g, opts, progress)?)),
+        ExperimentTest::Coupling(k) => Outcome::Coupling(Box::new(coupling::run(c, k, opts, progress)?)),
+    })
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! E1–E3: the learnt pattern, its long-run stability and its recovery from a
 //! push (wyffels & Schrauwen 2009, Fig. 2).
 
+mod section;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -300,7 +302,7 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
     let after = 40 * p;
     if long < release + after || long < s.first_samples {
         return Err(c.error(
-            "experiment.stability.long_run_s",
+            "experiment.test.stability.long_run_s",
             format!(
                 "{long_s} s is shorter than the push and 40 cycles after it ({} s)",
                 (release + after) as f64 / rate
@@ -384,4 +386,22 @@ pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progr
     };
     r.summarise();
     Ok(r)
+}
+
+impl super::Experiment for StabilityResult {
+    fn figure(&self) -> &'static str {
+        "Fig. 2"
+    }
+    super::common_accessors!();
+    fn passed(&self) -> (usize, usize) {
+        (self.seeds.iter().filter(|s| s.stability.accurate).count(), self.seeds.len())
+    }
+    fn target(&self) -> &'static str {
+        "accurate after the long run"
+    }
+    fn section(all: &[&Self], ctx: &super::doc::Context) -> Result<super::doc::Section> {
+        let mut s = super::doc::Section::default();
+        section::stability(&mut s, all, ctx);
+        Ok(s)
+    }
 }

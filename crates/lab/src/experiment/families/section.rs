@@ -1,13 +1,10 @@
 //! The comparison of generator families (Vakulenko et al. 2017 beside the reservoir).
 
-use std::path::Path;
-
 use cpg_compare::fit::Spec;
 use cpg_compare::measures::Errors;
-use cpg_lab::experiment::families::{FamiliesResult, SegTable};
 
-use super::fmt::{Md, secs};
-use crate::figures::{Curve, Look, Panel, save};
+use super::{FamiliesResult, NonSegmented, SegTable};
+use crate::experiment::doc::*;
 
 fn errs(e: &Errors) -> String {
     format!("{:.1} | {:.4} | {:.4} | {:.1}", e.mean_mm, e.rel_l1, e.rel_l2, e.err_abs_mm)
@@ -17,30 +14,30 @@ fn spec(s: Spec) -> String {
     format!("{} center{} / {} satellites", s.centers, if s.centers > 1 { "s" } else { "" }, s.satellites)
 }
 
-/// The section's heading (the summary links to it).
-pub const HEADING: &str = "Centralized networks and rhythmic DMPs (Vakulenko et al. 2017) beside the reservoir CPG";
+const HEADING: &str = FamiliesResult::HEADING;
 
 /// The whole section.
-pub fn section(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<()> {
-    md.line(format!("## {HEADING}"));
-    md.blank();
-    md.line("Only the headings, captions and Table 1 of the paper survive; the method is reconstructed in `shared/research/methods.md` §1 and every inferred choice is marked in the docs of `cpg-centralized` and `cpg-compare`. All three families run through one step interface (`cpg_compare::PatternGenerator`), are scored by the same error functions and are pushed by the same protocol as E3 (`cpg_lab::measure`). Configuration: `experiments/families.toml`.");
-    md.blank();
-    md.line("**Positions.** Forward kinematics of the skeleton: the root and the 30 bone end points (31 \"markers\"), 93 coordinates in mm, at 120 Hz. **Measures (our definitions; the paper's formulas are not readable).** *Mean 3-D error*: the Euclidean distance between model and data, averaged over the 31 points and all frames (mm, Figures 15–16). *Relative integral error* (Table 1's \"integral relative accuracy\"): per coordinate Σ|x − x̂| / Σ|x − x̄| with x̄ the coordinate's mean over the window, averaged over the coordinates (L1); the L2 variant uses root sums of squares. *ErrABS*: per coordinate the mean |x − x̂| in mm, averaged over the coordinates.");
-    md.blank();
+/// The whole section.
+pub fn section(s: &mut Section, r: &FamiliesResult, ctx: &Context) {
+    s.line(format!("## {HEADING}"));
+    s.blank();
+    s.line("Only the headings, captions and Table 1 of the paper survive; the method is reconstructed in `shared/research/methods.md` §1 and every inferred choice is marked in the docs of `cpg-centralized` and `cpg-compare`. All three families run through one step interface (`cpg_compare::PatternGenerator`), are scored by the same error functions and are pushed by the same protocol as E3 (`cpg_lab::measure`). Configuration: `experiments/families.toml`.");
+    s.blank();
+    s.line("**Positions.** Forward kinematics of the skeleton: the root and the 30 bone end points (31 \"markers\"), 93 coordinates in mm, at 120 Hz. **Measures (our definitions; the paper's formulas are not readable).** *Mean 3-D error*: the Euclidean distance between model and data, averaged over the 31 points and all frames (mm, Figures 15–16). *Relative integral error* (Table 1's \"integral relative accuracy\"): per coordinate Σ|x − x̂| / Σ|x − x̄| with x̄ the coordinate's mean over the window, averaged over the coordinates (L1); the L2 variant uses root sums of squares. *ErrABS*: per coordinate the mean |x − x̂| in mm, averaged over the coordinates.");
+    s.blank();
     let ns = &r.non_segmented;
     let ctl: Vec<String> = ns.control.iter().map(|(p, a)| format!("{p} {}", ["x", "y", "z"][*a])).collect();
-    md.line(format!("**Centralized recipe.** Phase centers φ = ω·t; RBF satellites on the torus with b = √(N^(1/M)); satellite centres on a grid when N is a perfect M-th power, else at the phases of N equally spaced frames; frequencies searched on {} over {} values from 0.05 to 2.5 Hz for one or two centers ({} for three), refined by golden section, then transferred to all 93 coordinates, which share one least-squares solve. **AICc**: n = frames (per coordinate), RSS = the residual sum of squares averaged over the 93 coordinates, k = N + 1 + M. **DMP**: pydmps 0.2 semantics (`cpg-dmp` matches pydmps to 1e-9 on a fixture made by `scripts/pydmps_reference.sh`), 100 basis functions, one DMP per coordinate; the window given to the DMP is one period (methods.md §1.10).", ctl.join(", "), ns.grid_sizes.0, ns.grid_sizes.1));
-    md.blank();
-    non_segmented(md, r, dir)?;
-    segmented(md, &r.segmented, dir, "fig_c4_segments", "Segmented: walk, run, walk, run")?;
-    md.line("### The paper's data: CMU 86_01, Table 1");
-    md.blank();
+    s.line(format!("**Centralized recipe.** Phase centers φ = ω·t; RBF satellites on the torus with b = √(N^(1/M)); satellite centres on a grid when N is a perfect M-th power, else at the phases of N equally spaced frames; frequencies searched on {} over {} values from 0.05 to 2.5 Hz for one or two centers ({} for three), refined by golden section, then transferred to all 93 coordinates, which share one least-squares solve. **AICc**: n = frames (per coordinate), RSS = the residual sum of squares averaged over the 93 coordinates, k = N + 1 + M. **DMP**: pydmps 0.2 semantics (`cpg-dmp` matches pydmps to 1e-9 on a fixture made by `scripts/pydmps_reference.sh`), 100 basis functions, one DMP per coordinate; the window given to the DMP is one period (methods.md §1.10).", ctl.join(", "), ns.grid_sizes.0, ns.grid_sizes.1));
+    s.blank();
+    non_segmented(s, r);
+    segmented(s, &r.segmented, "fig_c4_segments", "Segmented: walk, run, walk, run");
+    s.line("### The paper's data: CMU 86_01, Table 1");
+    s.blank();
     match &r.paper {
-        Some(t) => segmented(md, t, dir, "fig_c5_table1_86_01", "Table 1 on 86_01 (ours, the paper's in brackets)")?,
+        Some(t) => segmented(s, t, "fig_c5_table1_86_01", "Table 1 on 86_01 (ours, the paper's in brackets)"),
         None => {
-            md.line(format!("`{}` is not on this machine: `cargo xtask fetch-data` did not find it in the shared data folder and could not download it, so the paper's Table 1 setup did not run and `fig_c5` was not drawn. Put the file there and rerun; the same code path (`cpg_compare::fit::table1` with the paper's boundaries) runs above on the subject-35 sequence and in a test on a stand-in. The paper's numbers, for reference:", super::rel_str(&r.paper_trial)));
-            md.blank();
+            s.line(format!("`{}` is not on this machine: `cargo xtask fetch-data` did not find it in the shared data folder and could not download it, so the paper's Table 1 setup did not run and `fig_c5` was not drawn. Put the file there and rerun; the same code path (`cpg_compare::fit::table1` with the paper's boundaries) runs above on the subject-35 sequence and in a test on a stand-in. The paper's numbers, for reference:", ctx.path(&r.paper_trial)));
+            s.blank();
             let rows: Vec<Vec<String>> = cpg_compare::fit::TABLE1_SPECS
                 .iter()
                 .zip(cpg_compare::fit::TABLE1_PAPER.iter())
@@ -54,24 +51,23 @@ pub fn section(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<()
                     ]
                 })
                 .collect();
-            md.table(&["centers / satellites", "seg 1", "seg 2", "seg 3", "seg 4"], "lrrrr", &rows);
+            s.table(&["centers / satellites", "seg 1", "seg 2", "seg 3", "seg 4"], "lrrrr", &rows);
         }
     }
-    generalisation(md, r);
-    perturbation(md, r, dir)?;
-    strengths(md, r);
-    Ok(())
+    generalisation(s, r);
+    perturbation(s, r);
+    strengths(s, r);
 }
 
-fn non_segmented(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<()> {
+fn non_segmented(s: &mut Section, r: &FamiliesResult) {
     let ns = &r.non_segmented;
-    md.line(format!(
+    s.line(format!(
         "### Non-segmented: one walking trial ({}, {} frames, {:.1} s)",
         ns.trial,
         ns.frames,
         ns.frames as f64 / 120.0
     ));
-    md.blank();
+    s.blank();
     let paper_sizes = [16usize, 25, 49, 100];
     let mut rows: Vec<Vec<String>> = ns
         .rows
@@ -96,7 +92,7 @@ fn non_segmented(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<
         "—".into(),
     ]);
     rows.push(vec![format!("reservoir CPG (E6 model: 22 joint angles; root and the other 40 channels from the data; phase-aligned, offset {} frames)", ns.reservoir.2), errs(&ns.reservoir.0), format!("{:.1}", ns.reservoir.1.mean_mm), "—".into(), "—".into()]);
-    md.table(
+    s.table(
         &[
             "model",
             "mean 3-D error (mm)",
@@ -116,7 +112,7 @@ fn non_segmented(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<
         .iter()
         .map(|(m, f, a)| format!("{m} → N = {} (AICc {a:.0}, {:.1} mm)", f.spec.satellites, f.mean_mm))
         .collect();
-    md.line(format!(
+    s.line(format!(
         "AICc over N ∈ {{{}}} picks {} overall{}; per number of centers: {}.",
         sm.sizes.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", "),
         spec(ns.aicc_best),
@@ -127,19 +123,18 @@ fn non_segmented(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<
         },
         per.join("; ")
     ));
-    md.blank();
-    figures(ns, dir)?;
-    md.line("![model against data per coordinate](fig_c1_coordinates.png)");
-    md.blank();
-    md.line("![left ankle trajectory](fig_c2_trajectory.png)");
-    md.blank();
-    md.line("![AICc](fig_c3_aicc.png)");
-    md.blank();
-    Ok(())
+    s.blank();
+    figures(s, ns);
+    s.line("![model against data per coordinate](fig_c1_coordinates.png)");
+    s.blank();
+    s.line("![left ankle trajectory](fig_c2_trajectory.png)");
+    s.blank();
+    s.line("![AICc](fig_c3_aicc.png)");
+    s.blank();
 }
 
 /// Figures c1–c3: coordinates against the data, the left ankle's path, AICc.
-fn figures(ns: &cpg_lab::experiment::families::NonSegmented, dir: &Path) -> anyhow::Result<()> {
+fn figures(s: &mut Section, ns: &NonSegmented) {
     let d = ns.names.len() * 3;
     let (x, y_dmp, y2) = &ns.traces;
     let idx = |n: &str, c: usize| ns.names.iter().position(|a| a == n).map(|p| 3 * p + c);
@@ -169,14 +164,14 @@ fn figures(ns: &cpg_lab::experiment::families::NonSegmented, dir: &Path) -> anyh
             ],
         })
         .collect();
-    save(&dir.join("fig_c1_coordinates"), &panels, 3, (1400, 800))?;
+    s.figure("fig_c1_coordinates", panels, 3, (1400, 800));
     if let Some(a) = idx("ltibia", 0) {
         let proj = |y: &[f64], u: usize, v: usize| -> Vec<(f64, f64)> {
             y.chunks_exact(d).map(|f| (f[a + u], f[a + v])).collect()
         };
-        save(
-            &dir.join("fig_c2_trajectory"),
-            &[
+        s.figure(
+            "fig_c2_trajectory",
+            vec![
                 Panel {
                     equal_axes: true,
                     title: format!("left ankle of {} seen from above (equal scales)", ns.trial),
@@ -200,18 +195,18 @@ fn figures(ns: &cpg_lab::experiment::families::NonSegmented, dir: &Path) -> anyh
             ],
             2,
             (1300, 560),
-        )?;
+        );
     }
-    let curve = |m: usize, look: Look, f: &dyn Fn(&cpg_lab::experiment::families::FitRow) -> f64| {
+    let curve = |m: usize, look: Look, f: &dyn Fn(&crate::experiment::families::FitRow) -> f64| {
         Curve::new(
             look,
             format!("{m} center{}", if m > 1 { "s" } else { "" }),
             ns.rows.iter().filter(|r| r.spec.centers == m).map(|r| (r.spec.satellites as f64, f(r))).collect(),
         )
     };
-    save(
-        &dir.join("fig_c3_aicc"),
-        &[
+    s.figure(
+        "fig_c3_aicc",
+        vec![
             Panel {
                 equal_axes: false,
                 title: "AICc".into(),
@@ -237,17 +232,16 @@ fn figures(ns: &cpg_lab::experiment::families::NonSegmented, dir: &Path) -> anyh
         ],
         2,
         (1300, 520),
-    )?;
-    Ok(())
+    );
 }
 
-fn segmented(md: &mut Md, t: &SegTable, dir: &Path, stem: &str, title: &str) -> anyhow::Result<()> {
+fn segmented(s: &mut Section, t: &SegTable, stem: &str, title: &str) {
     let frames = t.starts.last().copied().unwrap_or(0) - t.starts.first().copied().unwrap_or(0);
-    md.line(format!("### {title} ({}, {frames} frames)", t.trials.join(" + ")));
-    md.blank();
+    s.line(format!("### {title} ({}, {frames} frames)", t.trials.join(" + ")));
+    s.blank();
     if t.paper.is_none() {
-        md.line(format!("The trials are glued into one sequence whose root path is continuous (each trial turned and moved to start where the previous one ended; the posture still changes at a join), split at the joins (frames {}), fitted per segment and glued by the switching module: a clock hub and one sigmoid window per segment, steepness β = {}/s.", t.starts.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(", "), t.beta_per_s));
-        md.blank();
+        s.line(format!("The trials are glued into one sequence whose root path is continuous (each trial turned and moved to start where the previous one ended; the posture still changes at a join), split at the joins (frames {}), fitted per segment and glued by the switching module: a clock hub and one sigmoid window per segment, steepness β = {}/s.", t.starts.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(", "), t.beta_per_s));
+        s.blank();
     }
     let n = t.rows.first().map_or(0, |r| r.per_segment.len());
     let mut head: Vec<String> = vec!["centers / satellites".into()];
@@ -274,10 +268,10 @@ fn segmented(md: &mut Md, t: &SegTable, dir: &Path, stem: &str, title: &str) -> 
         })
         .collect();
     let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
-    md.table(&head_ref, &format!("l{}", "r".repeat(head.len() - 1)), &rows);
+    s.table(&head_ref, &format!("l{}", "r".repeat(head.len() - 1)), &rows);
     let rows_jumps: Vec<String> = t.rows.iter().map(|r| format!("{:.1}", r.worst_jump_mm)).collect();
-    md.line(format!("Continuity at the boundaries: the largest frame-to-frame movement of any point within ±10 frames of a boundary is {} mm for the glued output (row by row) against {:.1} mm in the data itself.", rows_jumps.join(", "), t.rows.first().map_or(0.0, |r| r.data_jump_mm)));
-    md.blank();
+    s.line(format!("Continuity at the boundaries: the largest frame-to-frame movement of any point within ±10 frames of a boundary is {} mm for the glued output (row by row) against {:.1} mm in the data itself.", rows_jumps.join(", "), t.rows.first().map_or(0.0, |r| r.data_jump_mm)));
+    s.blank();
     let panels: Vec<Panel> = (0..n)
         .map(|j| {
             let mut curves = vec![Curve::new(
@@ -321,21 +315,20 @@ fn segmented(md: &mut Md, t: &SegTable, dir: &Path, stem: &str, title: &str) -> 
             )],
         }))
         .collect();
-    save(&dir.join(stem), &panels, n.max(1), (1500, 700))?;
-    md.line(format!("![{title}]({stem}.png)"));
-    md.blank();
-    Ok(())
+    s.figure(stem, panels, n.max(1), (1500, 700));
+    s.line(format!("![{title}]({stem}.png)"));
+    s.blank();
 }
 
-fn generalisation(md: &mut Md, r: &FamiliesResult) {
+fn generalisation(s: &mut Section, r: &FamiliesResult) {
     let g = &r.generalisation;
-    md.line(format!(
+    s.line(format!(
         "### Generalisation: fitted on {}, compared with another walk, {} (not in the paper)",
         g.fitted_trial, g.other_trial
     ));
-    md.blank();
-    md.line(format!("Body-frame positions (the root's six channels set to zero, so the two trials share place and heading). Each model runs freely; the start offset (up to one gait cycle, {} frames) that best matches the trial is chosen, which aligns the phase. The cycle is the gait cycle with the smallest seam in {} (frames {}–{}), the one E6 learns.", g.cycle.1, g.fitted_trial, g.cycle.0, g.cycle.0 + g.cycle.1));
-    md.blank();
+    s.blank();
+    s.line(format!("Body-frame positions (the root's six channels set to zero, so the two trials share place and heading). Each model runs freely; the start offset (up to one gait cycle, {} frames) that best matches the trial is chosen, which aligns the phase. The cycle is the gait cycle with the smallest seam in {} (frames {}–{}), the one E6 learns.", g.cycle.1, g.fitted_trial, g.cycle.0, g.cycle.0 + g.cycle.1));
+    s.blank();
     let rows: Vec<Vec<String>> = g
         .rows
         .iter()
@@ -349,7 +342,7 @@ fn generalisation(md: &mut Md, r: &FamiliesResult) {
             ]
         })
         .collect();
-    md.table(
+    s.table(
         &[
             "model",
             &format!("on {} (fitted), mean 3-D error (mm)", g.fitted_trial),
@@ -362,13 +355,13 @@ fn generalisation(md: &mut Md, r: &FamiliesResult) {
     );
 }
 
-fn perturbation(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<()> {
+fn perturbation(s: &mut Section, r: &FamiliesResult) {
     let p = &r.perturbation;
-    md.line("### Perturbation: what each family does when its output is held away (E3's protocol)");
-    md.blank();
+    s.line("### Perturbation: what each family does when its output is held away (E3's protocol)");
+    s.blank();
     let gait_hz = 120.0 / p.period_frames as f64;
-    md.line(format!("Every family learns the left-femur cycle of E1 ({} frames); the centralized network and the DMP from the same cycle the reservoir repeats (the search puts the center at {:.3} Hz, {:.2} × the gait frequency). From step {} the output is held at {:.1}° (the cycle's maximum + 2 σ) for {} steps. *Back on the orbit* and *back on the twin* are E3's measures (`cpg_lab::measure`): windows of a quarter period, within 0.25 σ for a whole period of windows, timed from the release to the start of the first good window. *Phase shift*: lag behind the twin long after the release, in gait cycles.", p.period_frames, p.center_hz, p.center_hz / gait_hz, p.at, p.held, p.hold));
-    md.blank();
+    s.line(format!("Every family learns the left-femur cycle of E1 ({} frames); the centralized network and the DMP from the same cycle the reservoir repeats (the search puts the center at {:.3} Hz, {:.2} × the gait frequency). From step {} the output is held at {:.1}° (the cycle's maximum + 2 σ) for {} steps. *Back on the orbit* and *back on the twin* are E3's measures (`cpg_lab::measure`): windows of a quarter period, within 0.25 σ for a whole period of windows, timed from the release to the start of the first good window. *Phase shift*: lag behind the twin long after the release, in gait cycles.", p.period_frames, p.center_hz, p.center_hz / gait_hz, p.at, p.held, p.hold));
+    s.blank();
     let mut rows: Vec<Vec<String>> = p
         .rows
         .iter()
@@ -390,7 +383,7 @@ fn perturbation(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<(
         format!("{:+.3}", k.recovery.phase_shift_cycles),
         k.mechanism.clone(),
     ]);
-    md.table(
+    s.table(
         &["generator", "back on the orbit", "back on the twin", "phase shift (cycles)", "what moves the rhythm"],
         "lrrrl",
         &rows,
@@ -425,30 +418,29 @@ fn perturbation(md: &mut Md, r: &FamiliesResult, dir: &Path) -> anyhow::Result<(
             ],
         }))
         .collect();
-    save(&dir.join("fig_c6_perturbation"), &panels, 3, (1400, 700))?;
-    md.line("![perturbations](fig_c6_perturbation.png)");
-    md.blank();
-    Ok(())
+    s.figure("fig_c6_perturbation", panels, 3, (1400, 700));
+    s.line("![perturbations](fig_c6_perturbation.png)");
+    s.blank();
 }
 
-fn strengths(md: &mut Md, r: &FamiliesResult) {
+fn strengths(s: &mut Section, r: &FamiliesResult) {
     let ns = &r.non_segmented;
     let sm = &r.summary;
-    md.line("### Strengths and weaknesses, from the numbers above");
-    md.blank();
+    s.line("### Strengths and weaknesses, from the numbers above");
+    s.blank();
     if let Some((best, smallest)) = sm.best_fit {
-        md.line(format!("- **Fitting a recording.** The centralized network reproduces the trial it was fitted on to {:.1} mm ({}), against {:.1} mm with {} satellites. The DMP given the whole trial as one period reaches {:.1} mm. The reservoir, which learns one cycle of 22 joint angles and then runs freely, is at {:.1} mm once phase-aligned.",
+        s.line(format!("- **Fitting a recording.** The centralized network reproduces the trial it was fitted on to {:.1} mm ({}), against {:.1} mm with {} satellites. The DMP given the whole trial as one period reaches {:.1} mm. The reservoir, which learns one cycle of 22 joint angles and then runs freely, is at {:.1} mm once phase-aligned.",
             best.mean_mm, spec(best.spec), smallest.mean_mm, smallest.spec.satellites, ns.dmp.0.mean_mm, ns.reservoir.0.mean_mm));
     }
     let per: Vec<String> = sm.best_per_centers.iter().map(|(m, e)| format!("{e:.1} mm with {m}")).collect();
-    md.line(format!("- **How many centers.** On the one walking trial the best error is {}; AICc picks {}{}. On the segmented walk/run sequence, closer to Table 1, the verdicts above compare 1 center with 2–3.", per.join(", "), spec(ns.aicc_best), if sm.aicc_at_edge { ", the grid's largest size: AICc still falls there" } else { "" }));
+    s.line(format!("- **How many centers.** On the one walking trial the best error is {}; AICc picks {}{}. On the segmented walk/run sequence, closer to Table 1, the verdicts above compare 1 center with 2–3.", per.join(", "), spec(ns.aicc_best), if sm.aicc_at_edge { ", the grid's largest size: AICc still falls there" } else { "" }));
     if let Some(b) = sm.best_segmented {
-        md.line(format!("- **Segments and switching.** Fitted segment by segment and glued, the sequence is reproduced to {:.1} mm ({}); the largest step near a boundary is {:.1} mm against {:.1} mm in the data.", b.mean_mm, spec(b.spec), sm.segmented_jumps_mm.0, sm.segmented_jumps_mm.1));
+        s.line(format!("- **Segments and switching.** Fitted segment by segment and glued, the sequence is reproduced to {:.1} mm ({}); the largest step near a boundary is {:.1} mm against {:.1} mm in the data.", b.mean_mm, spec(b.spec), sm.segmented_jumps_mm.0, sm.segmented_jumps_mm.1));
     }
     let g = &r.generalisation.rows;
     if let (Some(c), Some(last)) = (g.first(), g.last()) {
         let (lo, hi) = sm.generalisation_legs_mm;
-        md.line(format!("- **Generalisation.** On another walk the centralized network fitted on a whole trial goes from {:.1} mm to {:.1} mm; the {} is at {:.1} mm there. On the leg points the models lie between {lo:.1} and {hi:.1} mm.", c.fitted.mean_mm, c.other.mean_mm, last.model, last.other.mean_mm));
+        s.line(format!("- **Generalisation.** On another walk the centralized network fitted on a whole trial goes from {:.1} mm to {:.1} mm; the {} is at {:.1} mm there. On the leg points the models lie between {lo:.1} and {hi:.1} mm.", c.fitted.mean_mm, c.other.mean_mm, last.model, last.other.mean_mm));
     }
     let p = &r.perturbation;
     let res: Vec<String> = p
@@ -470,23 +462,23 @@ fn strengths(md: &mut Md, r: &FamiliesResult) {
         .filter(|x| !x.generator.starts_with("reservoir"))
         .map(|x| format!("{}: on its twin {}", x.generator, secs(x.recovery.twin_s)))
         .collect();
-    md.line(format!("- **Perturbations.** Clock-driven families return in phase with their unperturbed twin ({}); the reservoir has its own dynamics, which the push moves ({}).", clock.join("; "), res.join("; ")));
-    md.blank();
-    md.line("### Verdicts and their rules");
-    md.blank();
+    s.line(format!("- **Perturbations.** Clock-driven families return in phase with their unperturbed twin ({}); the reservoir has its own dynamics, which the push moves ({}).", clock.join("; "), res.join("; ")));
+    s.blank();
+    s.line("### Verdicts and their rules");
+    s.blank();
     for c in &r.claims {
-        md.line(format!(
+        s.line(format!(
             "- **{}** ({}): {}. Rule: {}. The paper: {}",
             c.claim,
-            super::fmt::verdict(&c.verdict),
+            crate::experiment::doc::verdict(&c.verdict),
             c.measured
                 .iter()
-                .map(|m| format!("{}: {}", m.label, super::fmt::value(&m.value)))
+                .map(|m| format!("{}: {}", m.label, crate::experiment::doc::value(&m.value)))
                 .collect::<Vec<_>>()
                 .join("; "),
             c.verdict.rule,
-            super::fmt::sources(&c.sources)
+            crate::experiment::doc::sources(&c.sources)
         ));
     }
-    md.blank();
+    s.blank();
 }
