@@ -29,14 +29,14 @@ pub fn venv() -> anyhow::Result<std::path::PathBuf> {
     Ok(venv)
 }
 
-/// Builds and installs the package, then runs pytest on `crates/python/tests`
-/// (the `cpg` command they compare with is built first). The wheel is built
-/// by maturin in the workspace's target directory and release profile, so it
-/// reuses what `cargo xtask` and the tests already compiled.
-pub fn run() -> anyhow::Result<()> {
-    crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the tests need")?;
+/// Builds the package's wheel (and the `cpg` command its tests compare
+/// with) and installs it into the environment; returns the environment's
+/// python. The wheel is built by maturin in the workspace's target directory
+/// and release profile, so it reuses what `cargo xtask` and the tests
+/// already compiled.
+pub fn install() -> anyhow::Result<std::path::PathBuf> {
     let venv = venv()?;
-    let py = venv.join("bin").join("python").display().to_string();
+    let py = venv.join("bin").join("python");
     let venv_dir = venv.display().to_string();
     cmd("cargo", &["build", "--release", "--quiet", "-p", "cpg-cli"], &[])?;
     let wheels = crate::root().join("target").join("wheels");
@@ -56,11 +56,20 @@ pub fn run() -> anyhow::Result<()> {
         .with_context(|| format!("maturin wrote no wheel into {out}"))?;
     let wheel = wheel.display().to_string();
     cmd(
-        &py,
+        &py.display().to_string(),
         &["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--force-reinstall", "--no-deps", &wheel],
         &[],
     )
     .context("installing the cpg wheel")?;
+    Ok(py)
+}
+
+/// Builds and installs the package, checks its stubs, then runs pytest on
+/// `crates/python/tests` (the `cpg` command they compare with is built first).
+pub fn run() -> anyhow::Result<()> {
+    crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the tests need")?;
+    let py = install()?.display().to_string();
+    let venv_dir = crate::root().join("target").join("python-venv").display().to_string();
     // The hand-written stubs must say what the compiled module holds.
     cmd(&py, &["-m", "mypy.stubtest", "cpg._cpg", "--ignore-missing-stub"], &[("VIRTUAL_ENV", venv_dir.as_str())])
         .context("the stubs crates/python/python/cpg/_cpg.pyi disagree with the module (mypy.stubtest)")?;

@@ -97,6 +97,9 @@ enum Command {
         /// skimming the floor, as the person's heel does before touch-down, scuffs it.
         #[arg(long, default_value_t = 0.5)]
         clearance: f64,
+        /// The stride rate as a multiple of the human's (0.5–2), steps as long.
+        #[arg(long, default_value_t = 1.0)]
+        tempo: f64,
         /// The planner's rate, Hz (20–2000).
         #[arg(long, default_value_t = 200.0)]
         plan_rate_hz: f64,
@@ -414,6 +417,7 @@ fn main() -> ExitCode {
             arm_scale,
             double_support_share,
             clearance,
+            tempo,
             plan_rate_hz,
             output,
             report,
@@ -429,6 +433,7 @@ fn main() -> ExitCode {
                 clearance,
                 steps,
                 rate_hz: plan_rate_hz,
+                tempo,
                 ..Default::default()
             },
             output: &output,

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::retarget::{MAX_TEMPO, MIN_TEMPO};
 
 /// The largest configuration file read, bytes.
 pub const MAX_CONFIG_BYTES: usize = 1 << 20;
@@ -93,13 +94,49 @@ pub struct DataSection {
     pub max_seam_excess: f64,
     /// Play one segment's loop at a smoothly varying rate set by a control input.
     pub tempo: Option<TempoSection>,
+    /// Learn the HOAP-2's walk retargeted from these human trials instead of
+    /// the motions themselves: each segment is the robot's steady stride at
+    /// the segment's `tempo`, its channels `JOINT.rx` in degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub retarget: Option<RetargetSection>,
+}
+
+/// `[data.retarget]`: the human walk the robot's gait is retargeted from
+/// (`cpg retarget`, docs/hoap2-walk.md), and the retargeting options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RetargetSection {
+    /// Walking trials (AMC with `data.skeleton`, or BVH) at `data.rate_hz`.
+    pub trials: Vec<PathBuf>,
+    /// Capture rate of the trials, Hz (the robot's gait is planned at `data.rate_hz`).
+    #[serde(default = "default_rate")]
+    pub trial_rate_hz: f64,
+    /// Steps planned per segment (the steady stride is taken near the end).
+    #[serde(default = "default_retarget_steps")]
+    pub steps: usize,
+    /// The robot's step as a share of the human's at the robot's leg length.
+    #[serde(default = "default_step_scale")]
+    pub step_scale: f64,
+    /// The swing lift as a share of the human's at the robot's leg length.
+    #[serde(default = "default_lift_scale")]
+    pub lift_scale: f64,
+    /// The arms' swing as a share of the human's.
+    #[serde(default = "default_one")]
+    pub arm_scale: f64,
+    /// The share of a step on both feet (default: the human's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub double_support_share: Option<f64>,
+    /// Strides of the steady walk repeated to make each segment's motion.
+    #[serde(default = "default_retarget_strides")]
+    pub strides: usize,
 }
 
 /// `[[data.segments]]`: one motion file (or a part of it).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentSection {
-    /// The motion file: AMC (with `data.skeleton`) or BVH.
+    /// The motion file: AMC (with `data.skeleton`) or BVH (none with `[data.retarget]`).
+    #[serde(default, skip_serializing_if = "is_empty_path")]
     pub motion: PathBuf,
     /// Control values held during this segment, one per control input.
     #[serde(default)]
@@ -108,6 +145,10 @@ pub struct SegmentSection {
     pub frames: Option<[usize; 2]>,
     /// A name for reports (default: the file name).
     pub label: Option<String>,
+    /// With `[data.retarget]`: the walk's tempo (1: the person's stride
+    /// period; 1.2: strides 1.2 times as fast, steps as long).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tempo: Option<f64>,
 }
 
 /// `[data.tempo]`: the loop played at a rate `u(t)` that drifts smoothly
@@ -394,6 +435,8 @@ pub enum ExperimentTest {
     Gaits(GaitsSection),
     /// E6: phase coupling of many outputs.
     Coupling(CouplingTestSection),
+    /// Walking in physics: the HOAP-2 in MuJoCo on the configuration's CPG.
+    Walking(WalkingSection),
 }
 
 impl ExperimentTest {
@@ -404,6 +447,7 @@ impl ExperimentTest {
             ExperimentTest::Frequency(_) => "frequency",
             ExperimentTest::Gaits(_) => "gaits",
             ExperimentTest::Coupling(_) => "coupling",
+            ExperimentTest::Walking(_) => "walking",
         }
     }
 
@@ -414,16 +458,25 @@ impl ExperimentTest {
             ExperimentTest::Frequency(t) => t.check(),
             ExperimentTest::Gaits(t) => t.check(),
             ExperimentTest::Coupling(t) => t.check(),
+            ExperimentTest::Walking(t) => t.check(),
         }
         .map_err(|(k, m)| (format!("experiment.test.{}.{k}", self.kind()), m))
     }
 
-    /// The robot the test shows its run on, if any.
-    fn robot_mut(&mut self) -> Option<&mut RobotSection> {
+    /// The paths the test names (a robot's files, the walking's gains).
+    fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
+        fn robot(r: Option<&mut RobotSection>) -> Vec<&mut PathBuf> {
+            r.map(|r| vec![&mut r.urdf, &mut r.map]).unwrap_or_default()
+        }
         match self {
-            ExperimentTest::Stability(_) | ExperimentTest::Frequency(_) => None,
-            ExperimentTest::Gaits(t) => t.robot.as_mut(),
-            ExperimentTest::Coupling(t) => t.robot.as_mut(),
+            ExperimentTest::Stability(_) | ExperimentTest::Frequency(_) => Vec::new(),
+            ExperimentTest::Gaits(t) => robot(t.robot.as_mut()),
+            ExperimentTest::Coupling(t) => robot(t.robot.as_mut()),
+            ExperimentTest::Walking(t) => {
+                let mut v = vec![&mut t.gains];
+                v.extend(t.copy_config.as_mut());
+                v
+            }
         }
     }
 }
@@ -561,6 +614,81 @@ impl CouplingTestSection {
     }
 }
 
+/// `[experiment.test.walking]`: the HOAP-2 in MuJoCo (the Python package's
+/// simulator, `python -m cpg.walk_eval`) driven by the configuration's CPG,
+/// one model per seed, from the walk `[data.retarget]` plans; beside it the
+/// paper's joint-angle copy and the planned walk played open loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WalkingSection {
+    /// Seconds of each simulated run.
+    #[serde(default = "default_walk_s")]
+    pub run_s: f64,
+    /// The same in a quick run.
+    #[serde(default = "default_quick_walk_s")]
+    pub quick_run_s: f64,
+    /// Seconds between pushes.
+    #[serde(default = "default_push_every_s")]
+    pub push_every_s: f64,
+    /// Each push's change of the trunk's velocity, m/s (over 0.1 s).
+    #[serde(default = "default_push_mps")]
+    pub push_mps: f64,
+    /// The tempo change half-way through the third run (a factor on the tempo input).
+    #[serde(default = "default_walk_tempo")]
+    pub tempo: f64,
+    /// Seconds of the cosine ramp of the tempo change.
+    #[serde(default = "default_tempo_ramp_s")]
+    pub tempo_ramp_s: f64,
+    /// Steps of the planned walk the runs start from (the CPG takes over at its 10th left touch-down).
+    #[serde(default = "default_start_steps")]
+    pub start_steps: usize,
+    /// The balance feedback's gains (JSON of `cpg.sim.Gains`, found by `python -m cpg.sim_search`).
+    pub gains: PathBuf,
+    /// The paper's protocol beside it: a configuration whose channels the HOAP-2 map copies onto the robot.
+    pub copy_config: Option<PathBuf>,
+}
+
+fn default_walk_s() -> f64 {
+    60.0
+}
+fn default_quick_walk_s() -> f64 {
+    20.0
+}
+fn default_push_every_s() -> f64 {
+    5.0
+}
+fn default_push_mps() -> f64 {
+    0.2
+}
+fn default_walk_tempo() -> f64 {
+    1.1
+}
+fn default_tempo_ramp_s() -> f64 {
+    3.0
+}
+fn default_start_steps() -> usize {
+    110
+}
+
+impl WalkingSection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        seconds_within("run_s", self.run_s, 1.0, DAY_S)?;
+        seconds_within("quick_run_s", self.quick_run_s, 1.0, DAY_S)?;
+        seconds_within("push_every_s", self.push_every_s, 0.5, 3600.0)?;
+        if !(self.push_mps.is_finite() && (0.0..=5.0).contains(&self.push_mps)) {
+            return Err(("push_mps".into(), format!("{}; expected 0 to 5 m/s", self.push_mps)));
+        }
+        if !(self.tempo.is_finite() && (0.5..=2.0).contains(&self.tempo)) {
+            return Err(("tempo".into(), format!("{}; expected 0.5 to 2", self.tempo)));
+        }
+        seconds_within("tempo_ramp_s", self.tempo_ramp_s, 0.0, 60.0)?;
+        if !(12..=MAX_RETARGET_STEPS).contains(&self.start_steps) {
+            return Err(("start_steps".into(), format!("{}; expected 12 to {MAX_RETARGET_STEPS}", self.start_steps)));
+        }
+        Ok(())
+    }
+}
+
 /// A robot description and the channel map onto its joints.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -574,6 +702,30 @@ pub struct RobotSection {
 fn default_rate() -> f64 {
     120.0
 }
+fn is_empty_path(p: &Path) -> bool {
+    p.as_os_str().is_empty()
+}
+
+fn default_retarget_steps() -> usize {
+    20
+}
+
+fn default_retarget_strides() -> usize {
+    4
+}
+
+fn default_step_scale() -> f64 {
+    0.2
+}
+
+fn default_lift_scale() -> f64 {
+    0.4
+}
+
+fn default_one() -> f64 {
+    1.0
+}
+
 fn default_cycles() -> usize {
     1
 }
@@ -727,6 +879,61 @@ fn line_of(text: &str, at: usize) -> usize {
     text.as_bytes()[..at.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
+impl DataSection {
+    /// Checks the `[data.retarget]` section against the segments.
+    fn check_retarget(&self) -> std::result::Result<(), (String, String)> {
+        let bad = |f: String, m: &str| Err((f, m.to_owned()));
+        let Some(r) = &self.retarget else {
+            for (k, s) in self.segments.iter().enumerate() {
+                if s.motion.as_os_str().is_empty() {
+                    return bad(format!("data.segments[{k}].motion"), "is missing: name an AMC or BVH file");
+                }
+                if s.tempo.is_some() {
+                    return bad(format!("data.segments[{k}].tempo"), "is used only with [data.retarget]");
+                }
+            }
+            return Ok(());
+        };
+        if r.trials.is_empty() || r.trials.len() > MAX_SEGMENTS {
+            return bad("data.retarget.trials".into(), &format!("needs 1 to {MAX_SEGMENTS} walking trials"));
+        }
+        if self.tempo.is_some() {
+            return bad("data.tempo".into(), "cannot be combined with [data.retarget] (give each segment a tempo)");
+        }
+        if !(r.trial_rate_hz.is_finite() && (1.0..=10_000.0).contains(&r.trial_rate_hz)) {
+            return bad("data.retarget.trial_rate_hz".into(), "expected 1 to 10000 Hz");
+        }
+        if !(6..=MAX_RETARGET_STEPS).contains(&r.steps) {
+            return bad("data.retarget.steps".into(), &format!("{}; expected 6 to {MAX_RETARGET_STEPS}", r.steps));
+        }
+        if !(1..=50).contains(&r.strides) {
+            return bad("data.retarget.strides".into(), &format!("{}; expected 1 to 50", r.strides));
+        }
+        for (k, s) in self.segments.iter().enumerate() {
+            if !s.motion.as_os_str().is_empty() {
+                return bad(
+                    format!("data.segments[{k}].motion"),
+                    "is given, but with [data.retarget] a segment is the robot's walk: give its tempo instead",
+                );
+            }
+            match s.tempo {
+                Some(t) if t.is_finite() && (MIN_TEMPO..=MAX_TEMPO).contains(&t) => {}
+                Some(t) => {
+                    return bad(
+                        format!("data.segments[{k}].tempo"),
+                        &format!("{t}; expected {MIN_TEMPO} to {MAX_TEMPO} (1: the person's stride period)"),
+                    );
+                }
+                None => return bad(format!("data.segments[{k}].tempo"), "is missing (1: the person's stride period)"),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The most steps `[data.retarget]` plans per segment.
+pub const MAX_RETARGET_STEPS: usize = 400;
+
 impl Config {
     /// An error about `field` of this configuration.
     pub fn error(&self, field: &str, message: impl Into<String>) -> Error {
@@ -743,47 +950,32 @@ impl Config {
             }
         };
         c.source = file.to_owned();
-        if let Some(p) = c.data.skeleton.as_mut() {
-            fix(p);
-        }
-        fix(&mut c.output.model);
-        for s in &mut c.data.segments {
-            fix(&mut s.motion);
-        }
-        for r in c.robots_mut() {
-            fix(&mut r.urdf);
-            fix(&mut r.map);
-        }
-        if let Some(p) = c.experiment.as_mut().and_then(|e| e.paper_config.as_mut()) {
-            fix(p);
-        }
+        c.paths_mut().into_iter().for_each(fix);
         c.check(file)?;
         Ok(c)
     }
 
-    /// The robot section of the experiment's test (E5's and E6's), for its paths.
-    fn robots_mut(&mut self) -> impl Iterator<Item = &mut RobotSection> {
-        self.experiment.as_mut().and_then(|e| e.test.robot_mut()).into_iter()
+    /// Every path of the configuration (resolved against the file's
+    /// directory when read, written relative to the new one).
+    fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
+        let mut out: Vec<&mut PathBuf> = Vec::new();
+        out.extend(self.data.skeleton.as_mut());
+        out.push(&mut self.output.model);
+        out.extend(self.data.segments.iter_mut().map(|s| &mut s.motion).filter(|m| !m.as_os_str().is_empty()));
+        out.extend(self.data.retarget.iter_mut().flat_map(|r| r.trials.iter_mut()));
+        if let Some(e) = self.experiment.as_mut() {
+            out.extend(e.paper_config.as_mut());
+            out.extend(e.test.paths_mut());
+        }
+        out
     }
 
     /// The configuration as TOML for a file in `dir`: every path is written
     /// relative to `dir` (absolute when it has no common root with it).
     pub fn to_toml(&self, dir: &Path) -> Result<String> {
         let mut c = self.clone();
-        let rel = |p: &mut PathBuf| *p = relative_to(p, dir);
-        if let Some(p) = c.data.skeleton.as_mut() {
-            rel(p);
-        }
-        rel(&mut c.output.model);
-        for s in &mut c.data.segments {
-            rel(&mut s.motion);
-        }
-        for r in c.robots_mut() {
-            rel(&mut r.urdf);
-            rel(&mut r.map);
-        }
-        if let Some(p) = c.experiment.as_mut().and_then(|e| e.paper_config.as_mut()) {
-            rel(p);
+        for p in c.paths_mut() {
+            *p = relative_to(p, dir);
         }
         toml::to_string(&c).map_err(|e| self.error("", format!("cannot be written as TOML: {e}")))
     }
@@ -861,6 +1053,7 @@ impl DataSection {
         {
             return fail("data.bvh_unit_mm", format!("{u}; expected 1e-6 to 1e6 mm per BVH length unit"));
         }
+        d.check_retarget()?;
         d.check_segment_controls()?;
         let [lo, hi] = d.period_s;
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi && hi <= 60.0) {

@@ -144,12 +144,14 @@ pub fn stability(y: &[f64], d: usize, teacher: &Teacher, reference: usize, rate_
     let early = rhythm(&y[(minute - win) * d..minute * d], d, teacher, reference);
     let end = rhythm(&y[(steps - win) * d..], d, teacher, reference);
     // Decayed for good: from the start of the first period-long window after
-    // which every window is below the decay fraction.
+    // which every window is below the decay fraction. Only whole periods are
+    // judged: a few steps left over at the end can lie near a turning point
+    // and look flat without being so.
     let p = (shape.period_steps.round() as usize).max(2);
     let floor = DECAYED_FRACTION * shape.amplitude[reference];
     let refc = column(y, d, reference);
     let mut decayed_from = None;
-    for (i, w) in refc.chunks(p).enumerate().rev() {
+    for (i, w) in refc.chunks_exact(p).enumerate().rev() {
         if half_range(w) < floor {
             decayed_from = Some(i * p);
         } else {
@@ -454,5 +456,20 @@ mod tests {
         let leaves = [1.0, 0.1, 0.1, 0.1, 0.1, 1.0, inf];
         assert_eq!(settle(&leaves, 0, 0.25, 2, 1.0), None, "it left again before the end");
         assert_eq!(settle(&[0.1, 0.1, 0.1, inf], 0, 0.25, 1, 1.0), Some(0.0), "at once");
+    }
+
+    #[test]
+    fn a_run_that_ends_near_a_turning_point_has_not_decayed() {
+        // A sine of period 100 steps, 1003 steps long: the last 3 steps sit on
+        // a crest, flat on their own; only whole periods are judged.
+        let cycle: Vec<f64> = (0..100).map(|k| (k as f64 * std::f64::consts::TAU / 100.0).sin()).collect();
+        let teacher = Teacher { label: "sine".into(), controls: Vec::new(), cycle: cycle.clone(), rate: 1.0 };
+        let y: Vec<f64> = (0..1003).map(|k| cycle[(k + 24) % 100]).collect();
+        let s = stability(&y, 1, &teacher, 0, 10.0);
+        assert_eq!(s.decayed_at_s, None, "3 leftover steps on a crest are not a decay");
+        // A run that does decay still says when.
+        let mut z = y.clone();
+        z[500..].iter_mut().for_each(|v| *v *= 1e-3);
+        assert_eq!(stability(&z, 1, &teacher, 0, 10.0).decayed_at_s, Some(50.0));
     }
 }

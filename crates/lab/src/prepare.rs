@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use cpg_mocap::cycle::{autocorrelation, best_loop, estimate_period, tile};
-use cpg_mocap::{Motion, Skeleton, ZScore};
+use cpg_mocap::{Channel, Motion, Skeleton, ZScore};
 use cpg_reservoir::{Hold, OrbitStay, OutputChannel, Score, Scoring, Sequence, Teacher, TrainingData};
 
 use crate::config::{Config, MAX_TRAINING_SAMPLES, MAX_VALIDATION_STEPS, OrbitSection, TempoSection};
@@ -194,9 +194,13 @@ pub struct Recorded {
     pub parts: Vec<Motion>,
 }
 
-/// Reads the motion files of a configuration: AMC with the ASF skeleton, or BVH.
+/// Reads the motion files of a configuration: AMC with the ASF skeleton, or
+/// BVH; with `[data.retarget]`, the robot's walk retargeted from the trials.
 pub fn read_recorded(c: &Config) -> Result<Recorded> {
     let d_sec = &c.data;
+    if let Some(r) = &d_sec.retarget {
+        return retargeted(c, r);
+    }
     let n_bvh = d_sec.segments.iter().filter(|s| cpg_mocap::is_bvh(&s.motion)).count();
     if n_bvh > 0 && n_bvh < d_sec.segments.len() {
         return Err(c.error("data.segments", "mixes BVH and AMC motions; give one kind"));
@@ -267,6 +271,52 @@ pub fn read_recorded(c: &Config) -> Result<Recorded> {
     Ok(Recorded { skeleton: Some(skeleton), parts })
 }
 
+/// One motion per segment: the HOAP-2's steady stride retargeted from the
+/// trials at the segment's tempo, repeated, channels `JOINT.rx` in degrees.
+fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded> {
+    use crate::retarget::{RetargetOptions, human_walk, retarget};
+    let bvh = cpg_mocap::BvhOptions { length_unit_mm: c.data.bvh_unit_mm };
+    let mut trials = Vec::with_capacity(r.trials.len());
+    for path in &r.trials {
+        let rec = cpg_mocap::read_recording(path, c.data.skeleton.as_deref(), Some(r.trial_rate_hz), &bvh)?;
+        trials.push(rec.skeleton.forward_kinematics(&rec.motion)?);
+    }
+    let human = human_walk(&trials)?;
+    let robot = cpg_hoap2::Robot::hoap2()?;
+    let mass =
+        cpg_hoap2::physics::MassModel::from_urdf(&robot, cpg_hoap2::assets::HOAP2_URDF, Path::new("hoap2.urdf"))?;
+    let mut parts = Vec::with_capacity(c.data.segments.len());
+    for (k, s) in c.data.segments.iter().enumerate() {
+        let o = RetargetOptions {
+            step_scale: r.step_scale,
+            lift_scale: r.lift_scale,
+            arm_scale: r.arm_scale,
+            double_support_share: r.double_support_share,
+            steps: r.steps,
+            rate_hz: c.data.rate_hz,
+            tempo: s.tempo.unwrap_or(1.0),
+            ..RetargetOptions::default()
+        };
+        let (_, plan, _) = retarget(&human, &robot, &mass, &o)?;
+        let (a, b) = plan.steady_stride;
+        if b <= a + 1 {
+            return Err(c.error(
+                &format!("data.segments[{k}]"),
+                format!(
+                    "the retargeted walk has no steady stride in {} steps: plan more (data.retarget.steps)",
+                    r.steps
+                ),
+            ));
+        }
+        let d = plan.joints.len();
+        let stride = &plan.q_rad[a * d..b * d];
+        let values: Vec<f64> = std::iter::repeat_n(stride, r.strides).flatten().map(|v| v.to_degrees()).collect();
+        let channels = plan.joints.iter().map(|j| Channel { bone: j.clone(), dof: cpg_mocap::Dof::Rx }).collect();
+        parts.push(Motion::new(channels, values, c.data.rate_hz)?);
+    }
+    Ok(Recorded { skeleton: None, parts })
+}
+
 /// The motions of a configuration, with the channels selected and normalised.
 struct Read {
     channels: Vec<String>,
@@ -304,7 +354,16 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
     }
     let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
     let z = ZScore::fit(&all)?;
-    let labels = d_sec.segments.iter().map(|s| s.label.clone().unwrap_or_else(|| file_name(&s.motion))).collect();
+    let labels = d_sec
+        .segments
+        .iter()
+        .map(|s| {
+            s.label.clone().unwrap_or_else(|| match s.tempo {
+                Some(t) => format!("walk ×{t}"),
+                None => file_name(&s.motion),
+            })
+        })
+        .collect();
     Ok(Read { channels, parts, z, labels })
 }
 

@@ -321,6 +321,11 @@ impl Tally {
     }
 }
 
+/// The slowest tempo of a retargeted walk (times the person's stride rate).
+pub const MIN_TEMPO: f64 = 0.5;
+/// The fastest tempo of a retargeted walk.
+pub const MAX_TEMPO: f64 = 2.0;
+
 /// What the robot's walk asks beyond the human's timing.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RetargetOptions {
@@ -346,6 +351,8 @@ pub struct RetargetOptions {
     pub stand_s: f64,
     /// The planner's rate, Hz.
     pub rate_hz: f64,
+    /// The stride rate as a multiple of the person's (steps as long).
+    pub tempo: f64,
 }
 
 impl Default for RetargetOptions {
@@ -361,6 +368,7 @@ impl Default for RetargetOptions {
             steps: 20,
             stand_s: 1.0,
             rate_hz: 200.0,
+            tempo: 1.0,
         }
     }
 }
@@ -379,6 +387,9 @@ pub fn walk_params(human: &HumanWalk, robot: &Robot, o: &RetargetOptions) -> Res
         if !(v.is_finite() && (0.0..=hi).contains(&v)) {
             return Err(Error::Bound(format!("{name} {v}: expected 0–{hi}")));
         }
+    }
+    if !(o.tempo.is_finite() && (MIN_TEMPO..=MAX_TEMPO).contains(&o.tempo)) {
+        return Err(Error::Bound(format!("tempo {}: expected {MIN_TEMPO}–{MAX_TEMPO}", o.tempo)));
     }
     let scale = robot_leg_length_m(robot)? / human.leg_length_m;
     let cycle = |name: &str| human.cycles_deg.iter().find(|(n, _)| n == name).map(|(_, v)| v.clone());
@@ -401,7 +412,7 @@ pub fn walk_params(human: &HumanWalk, robot: &Robot, o: &RetargetOptions) -> Res
         }
     }
     Ok(WalkParams {
-        stride_period_s: human.stride_period_s,
+        stride_period_s: human.stride_period_s / o.tempo,
         double_support_share: o.double_support_share.unwrap_or((2.0 * human.duty_factor - 1.0).clamp(0.0, 0.8)),
         step_length_m: o.step_scale * human.stride_length_m / 2.0 * scale,
         foot_y_m: o.foot_y_m,

@@ -118,12 +118,20 @@ fn errors_name_the_key_its_line_and_what_it_takes() {
     let e = err(&format!("{base}\n[training]\nscore = \"orbit\"\n"));
     assert!(e.contains("[training.orbit]"), "{e}");
     let exp = "\n[experiment]\nid = \"E1\"\ntitle = \"t\"\nprotocol = \"ours\"\n";
-    let e = err(&format!("{base}{exp}[experiment.test.walking]\nrun_s = 3\n"));
+    let e = err(&format!("{base}{exp}[experiment.test.juggling]\nrun_s = 3\n"));
     assert!(e.contains("`experiment.test`") && e.contains("stability") && e.contains("coupling"), "{e}");
     let e = err(&format!("{base}{exp}[experiment.test.stability]\nlong_run_s = 1e9\n"));
     assert!(e.contains("`experiment.test.stability.long_run_s`") && e.contains("86400"), "{e}");
     let e = err(&format!("{base}{exp}[experiment.test.stability]\n[experiment.test.gaits]\nrun_s = 3\n"));
     assert!(e.contains("`experiment.test`"), "{e}");
+    // A retargeted walk: segments give tempos, not motions.
+    let rt = "[data]\nchannels = [\"lleg_joint_4.rx\"]\n[data.retarget]\ntrials = [\"w.amc\"]\n[[data.segments]]\ntempo = 3\n[output]\nmodel = \"m.cpg\"\n";
+    let e = err(rt);
+    assert!(e.contains("`data.segments[0].tempo`") && e.contains("0.5 to 2"), "{e}");
+    let e = err(&rt.replace("tempo = 3", "motion = \"m.amc\""));
+    assert!(e.contains("`data.segments[0].motion`") && e.contains("give its tempo instead"), "{e}");
+    let e = err(&base.replace("[output]", "[output]").replace("motion = \"m.amc\"", "motion = \"m.amc\"\ntempo = 1"));
+    assert!(e.contains("`data.segments[0].tempo`") && e.contains("only with [data.retarget]"), "{e}");
     let e = err(&base.replace("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"a,b\"]"));
     assert!(e.contains("`data.controls[0]`") && e.contains("commas"), "{e}");
 }

@@ -330,10 +330,13 @@ pub(crate) fn load(path: PathBuf) -> PyResult<Model> {
 /// Trains a model as `cpg train` does, from a configuration file (a path)
 /// or a dict with the same fields (docs/config.md; relative paths against
 /// the working directory). The same configuration and seed give the same
-/// model, bit for bit, as `cpg train`.
+/// model, bit for bit, as `cpg train`; `seed` replaces the configuration's
+/// reservoir seed.
 #[pyfunction]
-pub(crate) fn train(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<Model> {
-    let c = if config.is_instance_of::<PyDict>() {
+#[pyo3(signature = (config, seed=None))]
+pub(crate) fn train(py: Python<'_>, config: &Bound<'_, PyAny>, seed: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
+    let seed = seed.map(|s| int_arg(s, "seed", 0, u64::MAX)).transpose()?;
+    let mut c = if config.is_instance_of::<PyDict>() {
         let Some(toml::Value::Table(t)) = to_toml(config, "")? else {
             return Err(err("the configuration dict is empty"));
         };
@@ -342,6 +345,9 @@ pub(crate) fn train(py: Python<'_>, config: &Bound<'_, PyAny>) -> PyResult<Model
         let p: PathBuf = config.extract().map_err(|_| err("config: expected a path or a dict"))?;
         Config::load(&p).map_err(err)?
     };
+    if let Some(s) = seed {
+        c.reservoir.seed = s;
+    }
     let m = interruptible(py, move |_| cpg_lab::in_pool(cores(), || cpg_lab::train::train(&c, cores()).map(|t| t.0)))?
         .map_err(err)?;
     Ok(Model::of(m))

@@ -78,3 +78,20 @@ def test_cpg_sim_says_what_is_wrong(walk, tmp_path):
     for k in ("upright_s", "fell", "forward_m", "lateral_m", "heading_deg", "max_torque_nm",
               "pushes_survived", "pushes_total"):
         assert k in out
+
+
+def test_the_walk_cpg_of_the_experiment_takes_a_tempo_change_by_its_input(walk):
+    """experiments/hoap2-walk.toml's CPG (the robot's walk at three tempos, a
+    tempo input) drives the robot from the 10th left touch-down and changes
+    tempo by its input, as the report's walking section runs it."""
+    import cpg
+
+    model = cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=1)
+    assert model.controls == ["u_tempo"], model.controls
+    w = read_trajectory(str(walk))
+    gains = Gains.from_json(GAINS.read_text())
+    r = simulate(*w, seconds=22.0, gains=gains, cpg_model=model, tempo=1.1, tempo_at_s=16.0)
+    assert not r["fell"] and r["upright_s"] == pytest.approx(22.0), r
+    assert r["forward_m"] > 0.8, r
+    # The seed replaces the configuration's: another seed, another reservoir.
+    assert cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=2).to_bytes() != model.to_bytes()

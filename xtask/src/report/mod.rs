@@ -6,6 +6,7 @@ mod fmt;
 mod summary;
 #[cfg(test)]
 mod tests;
+mod walking;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,8 +50,16 @@ pub enum Part {
     /// Centralized networks and DMPs against the reservoir on marker positions.
     #[value(alias = "centralized")]
     Families,
+    /// The HOAP-2 walking in MuJoCo on its CPG (the Python package's simulator).
+    Walking,
     /// Everything, with the table of what was tried.
     All,
+}
+
+/// Whether the configuration at `p` is a walking experiment (run by the Python package's simulator).
+fn is_walking(p: &Path) -> bool {
+    Config::load(p)
+        .is_ok_and(|c| c.experiment.is_some_and(|e| matches!(e.test, cpg_lab::config::ExperimentTest::Walking(_))))
 }
 
 /// The reservoir experiments, in report order: every configuration of
@@ -161,10 +170,11 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     let opts = Options { quick: args.quick, threads: crate::cores() };
     let mut times = Vec::new();
     let mut main = Vec::new();
-    if !args.configs.is_empty() || args.experiment != Part::Families {
+    let wants = |part: Part| args.experiment == Part::All || args.experiment == part;
+    if !args.configs.is_empty() || wants(Part::Reservoir) {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
         let paths: Vec<PathBuf> = if args.configs.is_empty() {
-            reservoir_experiments()?
+            reservoir_experiments()?.into_iter().filter(|p| !is_walking(p)).collect()
         } else {
             let cwd = std::env::current_dir().context("the current directory")?;
             args.configs.iter().map(|p| if p.is_absolute() { p.clone() } else { cwd.join(p) }).collect()
@@ -186,7 +196,7 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     if !args.configs.is_empty() {
         return Ok(Results { main, tried: Vec::new(), families: None, times });
     }
-    let families = if args.experiment != Part::Reservoir {
+    let families = if wants(Part::Families) {
         eprintln!("generator families (Vakulenko et al. 2017)");
         let t = Instant::now();
         let p = dir.join("families.toml");
@@ -201,6 +211,22 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     } else {
         None
     };
+    if wants(Part::Walking) {
+        for p in reservoir_experiments()?.into_iter().filter(|p| is_walking(p)) {
+            eprintln!("walking in physics (the HOAP-2 in MuJoCo): {}", rel(&p));
+            let t = Instant::now();
+            let c = Config::load(&p)?;
+            let work = crate::root().join("target").join("walking");
+            std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
+            let r =
+                walking::run(&work, &c, args.quick, opts.threads).with_context(|| format!("running {}", rel(&p)))?;
+            let o = Outcome::Walking(Box::new(r));
+            let (k, n) = o.passed();
+            eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
+            times.push((rel(&p), t.elapsed().as_secs_f64()));
+            main.push((rel(&p), o));
+        }
+    }
     let mut tried = Vec::new();
     if args.experiment == Part::All {
         eprintln!("what we tried (experiments/tried)");
@@ -429,6 +455,7 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
     if let Some(f) = &r.families {
         md.section(&f.section(&ctx), Some(dir))?;
     }
+
     md.line("## This run");
     md.blank();
     md.line(format!(
@@ -471,6 +498,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "report/configs"
         } else if args.experiment == Part::Families {
             "report/families"
+        } else if args.experiment == Part::Walking {
+            "report/walking"
         } else {
             "report"
         })

@@ -45,6 +45,7 @@ pub fn summary(md: &mut Md, outcomes: &[(String, Outcome)], families: Option<&Fa
     if let Some(f) = families {
         rows.extend(f.claims.iter().map(|c| row(c, FamiliesResult::HEADING)));
     }
+
     md.line("## Summary");
     md.blank();
     md.line("Every claim of both papers, as measured by this run, one row per claim and configuration. *The paper* quotes its words exactly (each quote is checked against the text in `shared/papers/` by this run) or, where the surviving text does not say it in words, gives our reading marked *inferred*. *What differs* is read from the configuration files: each setting in which the configuration differs from the paper's protocol (for the paper's protocol, from what the paper states). Each verdict's rule is printed in its section; *at the limit* marks a verdict that a comparison closer than the printed digits decided.");

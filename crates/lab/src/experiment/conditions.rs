@@ -237,6 +237,13 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
             });
         }
         ExperimentTest::Coupling(_) => test.push(Condition::Window { from_s: 0.0, to_s: 10.0 }),
+        ExperimentTest::Walking(w) => {
+            // The tempo input held at 1, then ramped to the new tempo half-way.
+            let half = w.run_s / 2.0;
+            test.push(Condition::Plateau { u: 1.0, hold_s: half });
+            test.push(Condition::Switch { at_s: half, ramp_s: w.tempo_ramp_s });
+            test.push(Condition::Plateau { u: w.tempo, hold_s: half - w.tempo_ramp_s });
+        }
     }
     Ok(Conditions { validation, test })
 }

@@ -11,6 +11,7 @@ pub mod families;
 pub mod frequency;
 pub mod gaits;
 pub mod stability;
+pub mod walking;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -288,6 +289,8 @@ pub enum Outcome {
     Gaits(Box<gaits::GaitsResult>),
     /// E6.
     Coupling(Box<coupling::CouplingResult>),
+    /// Walking in physics.
+    Walking(Box<walking::WalkingResult>),
 }
 
 impl Outcome {
@@ -298,6 +301,7 @@ impl Outcome {
             Outcome::Frequency(r) => r.as_ref(),
             Outcome::Gaits(r) => r.as_ref(),
             Outcome::Coupling(r) => r.as_ref(),
+            Outcome::Walking(r) => r.as_ref(),
         }
     }
 
@@ -346,6 +350,10 @@ impl Outcome {
                 )?,
                 Outcome::Coupling(_) => coupling::CouplingResult::section(
                     &pick(all, |x| if let Outcome::Coupling(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+                Outcome::Walking(_) => walking::WalkingResult::section(
+                    &pick(all, |x| if let Outcome::Walking(r) = x { Some(r.as_ref()) } else { None }),
                     ctx,
                 )?,
             });
@@ -472,6 +480,12 @@ fn run_here(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcom
         ExperimentTest::Frequency(f) => Outcome::Frequency(Box::new(frequency::run(c, f, opts, progress)?)),
         ExperimentTest::Gaits(g) => Outcome::Gaits(Box::new(gaits::run(c, g, opts, progress)?)),
         ExperimentTest::Coupling(k) => Outcome::Coupling(Box::new(coupling::run(c, k, opts, progress)?)),
+        ExperimentTest::Walking(_) => {
+            return Err(c.error(
+                "experiment.test.walking",
+                "runs in the Python package's simulator (MuJoCo): `cargo xtask evaluate --experiment walking` runs it",
+            ));
+        }
     })
 }
 

@@ -141,8 +141,8 @@ class Model:
 def load(path: _Path) -> Model:
     """Reads a model file."""
 
-def train(config: Union[_Path, dict[str, Any]]) -> Model:
-    """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields."""
+def train(config: Union[_Path, dict[str, Any]], seed: Optional[int] = None) -> Model:
+    """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields; ``seed`` replaces the reservoir seed."""
 
 def fit(
     y: Optional[_ArrayLike] = None,

@@ -118,6 +118,8 @@ def simulate(
     record_every: int = 0,
     cpg_model=None,
     handover_s: Optional[float] = None,
+    cpg_controls: Optional[dict] = None,
+    tempo_ramp_s: float = 3.0,
 ):
     """Plays a walk in the HOAP-2 model; returns the run's measures (a dict).
 
@@ -125,8 +127,12 @@ def simulate(
     degrees), the walk's trajectory gives the start (standing, the first
     steps) and the joints the model does not drive; from ``handover_s`` on
     (default: the trajectory's 10th left touch-down) the model's generator
-    drives, stepped inside the loop at its own rate (times the tempo), its
-    phase matched to the trajectory's at the hand-over."""
+    drives, stepped inside the loop at its own rate, its phase matched to
+    the trajectory's at the hand-over. A model with control inputs gets
+    ``cpg_controls`` (by name; default: its first teacher's setting); when one
+    of them is ``u_tempo``, a tempo change is that input times the tempo (the
+    CPG's own tempo input), reached by a cosine ramp of ``tempo_ramp_s``;
+    otherwise the generator's clock runs faster."""
     import mujoco
 
     if push_direction != "all" and push_direction not in DIRECTIONS:
@@ -184,9 +190,26 @@ def simulate(
             if support[k] == "double" and support[k - 1] in ("left", "right"):
                 landings.append((clock_t[k], 1 if support[k - 1] == "left" else 0))  # the foot that swung
     gen = None
+    ctl_names = list(cpg_model.controls) if cpg_model is not None else []
+    tempo_by_input = "u_tempo" in ctl_names
     if cpg_model is not None:
+        base = dict(zip(ctl_names, cpg_model.teachers[0]["controls"])) if ctl_names else {}
+        unknown = set(cpg_controls or {}) - set(ctl_names)
+        if unknown:
+            raise ValueError(f"controls {sorted(unknown)} are not the model's inputs {ctl_names}")
+        base.update(cpg_controls or {})
+
+        def controls_at(t):
+            u = dict(base)
+            if tempo_by_input and t >= tempo_at_s:
+                # A cosine ramp to the new tempo, as the model was validated with.
+                s = 1.0 if tempo_ramp_s <= 0 else min(1.0, (t - tempo_at_s) / tempo_ramp_s)
+                w = 0.5 - 0.5 * math.cos(math.pi * s)
+                u["u_tempo"] = base["u_tempo"] * (1.0 + (tempo - 1.0) * w)
+            return [float(u[n]) for n in ctl_names]
+
         gen, drive, gen_rate, gen_prev, gen_next, gen_due, handover_s = _generator_for(
-            cpg_model, joints, clock_t, angles_rad, support, handover_s
+            cpg_model, joints, clock_t, angles_rad, support, handover_s, controls_at(0.0)
         )
     land_k = 0
     clock = 0.0
@@ -225,11 +248,12 @@ def simulate(
         target = frame_at(clock)
         if gen is not None and t >= handover_s:
             # The generator steps inside the loop; between its steps the command is interpolated.
+            g_rate = gen_rate if tempo_by_input else gen_rate * rate
             while gen_due <= t:
                 gen_prev = gen_next
-                gen_next = np.radians(np.asarray(gen.step(), dtype=float))
-                gen_due += 1.0 / (gen_rate * rate)
-            f = 1.0 - (gen_due - t) * gen_rate * rate
+                gen_next = np.radians(np.asarray(gen.step(controls_at(t) if ctl_names else None), dtype=float))
+                gen_due += 1.0 / g_rate
+            f = 1.0 - (gen_due - t) * g_rate
             target[drive] = gen_prev * (1.0 - f) + gen_next * f
             clock = min(clock, handover_s)
         # Attitude feedback from the IMU.
@@ -333,8 +357,9 @@ def fit_walk(times_s, joints, angles_rad, support, *, seed: int = 1, neurons: in
     return cpg.fit(y, rate_hz=rate, channels=[joints[k] + ".rx" for k in drive], seed=int(seed), config=config)
 
 
-def _generator_for(model, joints, clock_t, angles_rad, support, handover_s):
-    """The model's generator, stepped to the phase that matches the trajectory at the hand-over."""
+def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, controls=None):
+    """The model's generator, stepped to the phase that matches the trajectory at the hand-over
+    (``controls``: its control values, held)."""
     names = [c[:-3] if c.endswith(".rx") else c for c in model.channels]
     missing = [n for n in names if n not in joints]
     if missing:
@@ -346,14 +371,15 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s):
         handover_s = strikes[9] if len(strikes) > 9 else float(clock_t[len(clock_t) // 2])
     k = int(np.searchsorted(clock_t, handover_s))
     want = angles_rad[min(k, len(clock_t) - 1), drive]
+    u = controls if controls else None
     probe = model.generator()
     steps = int(round(4.0 * rate))  # a few strides: the generator's own rhythm
-    ys = np.radians(np.asarray([probe.step() for _ in range(steps)], dtype=float))
+    ys = np.radians(np.asarray([probe.step(u) for _ in range(steps)], dtype=float))
     best = int(np.argmin(np.sum((ys[steps // 2 :] - want) ** 2, axis=1))) + steps // 2
     gen = model.generator()
     for _ in range(best):
-        gen.step()
-    first = np.radians(np.asarray(gen.step(), dtype=float))
+        gen.step(u)
+    first = np.radians(np.asarray(gen.step(u), dtype=float))
     return gen, drive, rate, first, first, handover_s, handover_s
 
 

@@ -2,10 +2,13 @@
 
 ``python -m cpg.sim_search --trajectory walk.csv --storage sqlite:///gains.db --trials 200 --workers 2``
 
-Every trial simulates the walk twice with one set of ``cpg.sim.Gains`` (20 s
-on flat ground; 20 s with a 0.2 m/s push every 5 s, the directions in turn)
-and scores ``upright share + pushes survived share + forward progress share
-- |heading| / 90°``, each share over what the run could reach. The study
+Every trial simulates the walk with one set of ``cpg.sim.Gains`` (20 s on
+flat ground; 20 s with a 0.2 m/s push every 5 s, the directions in turn;
+with ``--model``, the CPG drives after the hand-over and a third run changes
+the tempo by ``--tempo`` half-way; several ``--model`` options, one per
+reservoir seed, are all run) and scores ``upright share + pushes survived
+share + forward progress share - |heading| / 30°`` per run, each share over
+what the run could reach, averaged over the runs. The study
 lives in Optuna's database storage: the same command run on more machines
 against one database (``--storage postgresql://...``) searches together, and
 ``--workers N`` starts N worker processes here. Seeded: worker k samples with
@@ -33,19 +36,21 @@ SPACE = {
 }
 
 
-def score(walk, gains: Gains, seconds: float, planned_speed_m_s: float) -> tuple[float, list]:
+def score(walk, gains: Gains, seconds: float, planned_speed_m_s: float, model=None, tempo: float = 1.1) -> tuple[float, list]:
     """The objective of one set of gains, and the runs it came from."""
     runs = [
-        simulate(*walk, seconds=seconds, gains=gains),
-        simulate(*walk, seconds=seconds, gains=gains, push_every_s=5.0, push_mps=0.2),
+        simulate(*walk, seconds=seconds, gains=gains, cpg_model=model),
+        simulate(*walk, seconds=seconds, gains=gains, push_every_s=5.0, push_mps=0.2, cpg_model=model),
     ]
+    if model is not None and tempo != 1.0:
+        runs.append(simulate(*walk, seconds=seconds, gains=gains, cpg_model=model, tempo=tempo, tempo_at_s=seconds / 2))
     s = 0.0
     for r in runs:
         s += r["upright_s"] / seconds
         if r["pushes_total"]:
             s += r["pushes_survived"] / r["pushes_total"]
         s += max(0.0, min(1.0, r["forward_m"] / (planned_speed_m_s * seconds)))
-        s -= min(1.0, abs(r["heading_deg"]) / 90.0)
+        s -= min(1.0, abs(r["heading_deg"]) / 30.0)
     return s / len(runs), runs
 
 
@@ -64,9 +69,12 @@ def planned_speed(path: str) -> float:
 def _worker(args):
     import optuna
 
-    trajectory, storage, name, trials, seconds, seed = args
+    trajectory, storage, name, trials, seconds, seed, model_paths, tempo = args
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     walk = read_trajectory(trajectory)
+    import cpg
+
+    models = [cpg.load(p) for p in model_paths] or [None]
     speed = planned_speed(trajectory)
     study = optuna.load_study(study_name=name, storage=storage, sampler=optuna.samplers.TPESampler(seed=seed))
 
@@ -75,7 +83,9 @@ def _worker(args):
             **{k: trial.suggest_float(k, lo, hi) for k, (lo, hi) in SPACE.items()},
             phase_reset=trial.suggest_categorical("phase_reset", [False, True]),
         )
-        value, runs = score(walk, g, seconds, speed)
+        scored = [score(walk, g, seconds, speed, m, tempo) for m in models]
+        value = sum(v for v, _ in scored) / len(scored)
+        runs = [r for _, rs in scored for r in rs]
         trial.set_user_attr("runs", [{k: v for k, v in r.items()} for r in runs])
         return value
 
@@ -91,6 +101,13 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int, default=2, help="worker processes on this machine")
     p.add_argument("--seconds", type=float, default=20.0, help="seconds per simulated run")
     p.add_argument("--seed", type=int, default=1, help="worker k samples with seed + k")
+    p.add_argument(
+        "--model",
+        action="append",
+        default=[],
+        help="a trained CPG of the walk (channels JOINT.rx) that drives after the hand-over (repeat: one per seed)",
+    )
+    p.add_argument("--tempo", type=float, default=1.1, help="with --model: the tempo change of the third run")
     p.add_argument("-o", "--output", help="write the best gains (JSON) here")
     a = p.parse_args(argv)
     try:
@@ -108,7 +125,9 @@ def main(argv=None) -> int:
         print(f"cpg.sim_search: {e}", file=sys.stderr)
         return 2
     optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
-    jobs = [(a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k) for k in range(a.workers)]
+    jobs = [
+        (a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k, a.model, a.tempo) for k in range(a.workers)
+    ]
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(a.workers) as pool:
         pool.map(_worker, jobs)

@@ -1,79 +1,142 @@
-"""Walking in physics, over reservoir seeds: the retargeted walk played open
-loop, the CPG learnt from it without feedback and with the searched gains,
-each 60 s on flat ground, with pushes, and with a tempo change.
+"""Walking in physics, over reservoir seeds: the paper's joint-angle copy and
+the retargeted walk played open loop, and the CPG learnt from the retargeted
+walk without feedback and with the searched gains, each on flat ground, with
+pushes, and with a tempo change.
 
-``python -m cpg.walk_eval --trajectory walk.csv --gains gains.json --seeds 10 -o walking.json``
+``python -m cpg.walk_eval --trajectory walk.csv --config experiments/hoap2-walk.toml --gains gains.json --seeds 10 -o walking.json``
+
+With ``--config`` each seed's CPG is trained from that configuration (``cpg
+train``'s, its reservoir seed replaced), otherwise from the trajectory's
+steady stride (``cpg.sim.fit_walk``). ``--copy`` adds the paper's protocol: a
+model's output mapped joint by joint onto the robot (``cpg hoap2``'s CSV),
+played from the standing pose. The JSON holds every run's measures; the
+first seed's runs with feedback also hold the trunk's path and the soles'
+contact forces at 50 Hz.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 
 from cpg.sim import Gains, fit_walk, read_trajectory, simulate
 
+#: Every 20th physics step (50 Hz) of the recorded runs.
+RECORD_EVERY = 20
+
+
+def _conditions(walk, seconds, push_every_s, push_mps, tempo, tempo_ramp_s, **kw):
+    """The three runs of a row: flat, pushed, a tempo change half-way."""
+    return {
+        "flat": simulate(*walk, seconds=seconds, **kw),
+        "pushes": simulate(*walk, seconds=seconds, push_every_s=push_every_s, push_mps=push_mps, **kw),
+        "tempo": simulate(*walk, seconds=seconds, tempo=tempo, tempo_at_s=seconds / 2, tempo_ramp_s=tempo_ramp_s, **kw),
+    }
+
 
 def _one(job):
-    trajectory, seed, gains_json, seconds, neurons = job
+    trajectory, config, seed, gains_json, a = job
     import cpg
 
     walk = read_trajectory(trajectory)
     gains = Gains.from_json(gains_json)
     t0 = time.perf_counter()
-    model = fit_walk(*walk, seed=seed, neurons=neurons)
+    if config:
+        model = cpg.train(config, seed=seed)
+    else:
+        model = fit_walk(*walk, seed=seed, neurons=a["neurons"])
     fit_s = time.perf_counter() - t0
     rows = {}
-    for name, m, g in (("cpg", model, Gains()), ("cpg+feedback", model, gains)):
-        rows[name] = {
-            "flat": simulate(*walk, seconds=seconds, gains=g, cpg_model=m),
-            "pushes": simulate(*walk, seconds=seconds, gains=g, cpg_model=m, push_every_s=5.0, push_mps=0.2),
-            "tempo": simulate(*walk, seconds=seconds, gains=g, cpg_model=m, tempo=1.1, tempo_at_s=seconds / 2),
-        }
+    for name, g in (("cpg", Gains()), ("cpg+feedback", gains)):
+        record = RECORD_EVERY if (seed == a["first_seed"] and name == "cpg+feedback") else 0
+        rows[name] = _conditions(
+            walk,
+            a["seconds"],
+            a["push_every_s"],
+            a["push_mps"],
+            a["tempo"],
+            a["tempo_ramp_s"],
+            gains=g,
+            cpg_model=model,
+            record_every=record,
+        )
     return seed, fit_s, repr(model), rows
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m cpg.walk_eval", description=__doc__.split("\n\n")[0])
-    p.add_argument("--trajectory", required=True)
+    p.add_argument("--trajectory", required=True, help="the retargeted walk (cpg retarget's CSV): the start of every run")
+    p.add_argument("--config", help="a cpg train configuration of the walk's CPG (e.g. experiments/hoap2-walk.toml)")
+    p.add_argument("--copy", help="the paper's joint-angle copy as joint commands (cpg hoap2's CSV)")
     p.add_argument("--gains", required=True, help="JSON file of cpg.sim.Gains (cpg.sim_search -o)")
     p.add_argument("--seeds", type=int, default=10)
+    p.add_argument("--first-seed", type=int, default=1)
     p.add_argument("--seconds", type=float, default=60.0)
-    p.add_argument("--neurons", type=int, default=600)
+    p.add_argument("--push-every-s", type=float, default=5.0)
+    p.add_argument("--push-mps", type=float, default=0.2)
+    p.add_argument("--tempo", type=float, default=1.1, help="the tempo change half-way through the third run")
+    p.add_argument("--tempo-ramp-s", type=float, default=3.0, help="seconds of the tempo change's cosine ramp")
+    p.add_argument("--neurons", type=int, default=600, help="without --config: the fitted CPG's size")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("-o", "--output", required=True)
     a = p.parse_args(argv)
-    gains_json = open(a.gains, encoding="utf-8").read()
-    walk = read_trajectory(a.trajectory)
-    gains = Gains.from_json(gains_json)
-    out = {"trajectory": a.trajectory, "gains": json.loads(gains_json), "seconds": a.seconds, "neurons": a.neurons}
-    out["open_loop"] = {
-        "flat": simulate(*walk, seconds=a.seconds),
-        "pushes": simulate(*walk, seconds=a.seconds, push_every_s=5.0, push_mps=0.2),
-        "tempo": simulate(*walk, seconds=a.seconds, tempo=1.1, tempo_at_s=a.seconds / 2),
+    if not (1 <= a.seeds <= 1000 and 1.0 <= a.seconds <= 3600.0 and 1 <= a.workers <= 256):
+        print("seeds 1–1000, seconds 1–3600, workers 1–256", file=sys.stderr)
+        return 2
+    try:
+        gains_json = open(a.gains, encoding="utf-8").read()
+        gains = Gains.from_json(gains_json)
+        walk = read_trajectory(a.trajectory)
+        copy = read_trajectory(a.copy) if a.copy else None
+    except (OSError, ValueError) as e:
+        print(f"cpg.walk_eval: {e}", file=sys.stderr)
+        return 2
+    opts = {
+        "seconds": a.seconds,
+        "push_every_s": a.push_every_s,
+        "push_mps": a.push_mps,
+        "tempo": a.tempo,
+        "tempo_ramp_s": a.tempo_ramp_s,
+        "neurons": a.neurons,
+        "first_seed": a.first_seed,
     }
-    out["open_loop+feedback"] = {
-        "flat": simulate(*walk, seconds=a.seconds, gains=gains),
-        "pushes": simulate(*walk, seconds=a.seconds, gains=gains, push_every_s=5.0, push_mps=0.2),
-        "tempo": simulate(*walk, seconds=a.seconds, gains=gains, tempo=1.1, tempo_at_s=a.seconds / 2),
+    out = {
+        "trajectory": a.trajectory,
+        "config": a.config,
+        "copy": a.copy,
+        "gains": json.loads(gains_json),
+        **opts,
     }
-    jobs = [(a.trajectory, s, gains_json, a.seconds, a.neurons) for s in range(1, a.seeds + 1)]
+    cond = lambda w, **kw: _conditions(w, a.seconds, a.push_every_s, a.push_mps, a.tempo, a.tempo_ramp_s, **kw)  # noqa: E731
+    t0 = time.perf_counter()
+    if copy is not None:
+        out["copy_run"] = cond(copy)
+    out["open_loop"] = cond(walk)
+    out["open_loop+feedback"] = cond(walk, gains=gains)
+    jobs = [(a.trajectory, a.config, s, gains_json, opts) for s in range(a.first_seed, a.first_seed + a.seeds)]
     with ProcessPoolExecutor(a.workers) as pool:
-        out["seeds"] = [
-            {"seed": s, "fit_s": f, "model": m, **rows} for s, f, m, rows in pool.map(_one, jobs)
-        ]
-    with open(a.output, "w", encoding="utf-8") as f:
+        out["seeds"] = [{"seed": s, "fit_s": f, "model": m, **rows} for s, f, m, rows in pool.map(_one, jobs)]
+    out["wall_s"] = time.perf_counter() - t0
+    d = os.path.dirname(os.path.abspath(a.output))
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".walk-eval-")
+    with os.fdopen(fd, "w") as f:
         json.dump(out, f, indent=1)
+    os.replace(tmp, a.output)
     for row in ("cpg", "cpg+feedback"):
-        for cond in ("flat", "pushes", "tempo"):
-            rs = [s[row][cond] for s in out["seeds"]]
+        for c in ("flat", "pushes", "tempo"):
+            rs = [s[row][c] for s in out["seeds"]]
             up = sum(not r["fell"] for r in rs)
             fwd = sorted(r["forward_m"] for r in rs)
             pushes = sum(r["pushes_survived"] for r in rs), sum(r["pushes_total"] for r in rs)
-            print(f"{row:<13} {cond:<7} upright {up}/{len(rs)}; forward {fwd[0]:.2f}–{fwd[-1]:.2f} m; "
-                  f"heading up to {max(abs(r['heading_deg']) for r in rs):.1f}°; pushes {pushes[0]}/{pushes[1]}")
+            print(
+                f"{row:<13} {c:<7} upright {up}/{len(rs)}; forward {fwd[0]:.2f}–{fwd[-1]:.2f} m; "
+                f"heading up to {max(abs(r['heading_deg']) for r in rs):.1f}°; pushes {pushes[0]}/{pushes[1]}"
+            )
     return 0
 
 
