@@ -275,7 +275,8 @@ enum Command {
     /// velocity and acceleration limits (a channel the model does not generate
     /// counts as 0 there too; --no-robot leaves the robot out). With --motion
     /// (and --skeleton for AMC): a recording, AMC or BVH, and the HOAP-2
-    /// driven by it.
+    /// driven by it. With --sim: a run of the HOAP-2 in MuJoCo as `cpg-sim -o`
+    /// recorded it (the body where the physics put it, at 50 Hz).
     ///
     /// HTML (the default, or -o NAME.html): one self-contained file, no
     /// network, that plays at once, with play/pause, speed, a time slider and
@@ -297,6 +298,9 @@ enum Command {
         /// The skeleton (.asf) of an .amc recording.
         #[arg(long, short)]
         skeleton: Option<PathBuf>,
+        /// A simulated run to watch instead: the JSON `cpg-sim -o` writes.
+        #[arg(long)]
+        sim: Option<PathBuf>,
         #[command(flatten)]
         rec: RecordingArgs,
         /// Seconds shown (a recording: at most its length).
@@ -502,6 +506,7 @@ fn main() -> ExitCode {
             control_file,
             motion,
             skeleton,
+            sim,
             rec,
             seconds,
             no_robot,
@@ -517,6 +522,7 @@ fn main() -> ExitCode {
             control_file: control_file.as_deref(),
             motion: motion.as_deref(),
             skeleton: skeleton.as_deref(),
+            sim: sim.as_deref(),
             motion_rate_hz: rec.rate_hz,
             bvh_unit_mm: rec.bvh_unit_mm,
             seconds,

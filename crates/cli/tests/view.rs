@@ -459,3 +459,46 @@ fn hostile_joint_names_are_text_and_the_page_still_runs() {
     assert!(names.contains("<!--<script>") && names.contains("</script><b>&amp;"), "{names}");
     assert_eq!(b.eval("document.querySelectorAll('script').length"), json!(2), "no script element was injected");
 }
+
+/// A run of the HOAP-2 in MuJoCo (`cpg-sim -o`) is shown where the physics
+/// put the body; a file that is not such a run says where.
+#[test]
+fn a_simulated_run_is_shown_where_the_physics_put_the_body() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = cpg_hoap2::Robot::hoap2().unwrap();
+    let joints: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
+    // The trunk walks 0.1 m forward in 2 s (50 Hz), a knee bent.
+    let poses: Vec<Vec<f64>> = (0..100)
+        .map(|k| {
+            let t = k as f64 / 50.0;
+            let mut p = vec![t, 0.05 * t, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0];
+            p.extend(joints.iter().map(|j| if j == "lleg_joint_4" { 0.5 } else { 0.0 }));
+            p
+        })
+        .collect();
+    let run = json!({
+        "seconds": 2.0, "upright_s": 2.0, "fell": false, "forward_m": 0.1, "lateral_m": 0.0,
+        "heading_deg": 0.0, "speed_m_s": 0.05, "speed_leg_lengths_s": 0.2, "max_torque_nm": 1.0,
+        "cost_of_transport": 1.0, "pushes_survived": 0, "pushes_total": 0,
+        "pose_joints": joints, "poses": poses,
+    });
+    let sim = dir.path().join("run.json");
+    std::fs::write(&sim, run.to_string()).unwrap();
+    let out = dir.path().join("run.html");
+    let err = ok(&cpg(&[
+        OsStr::new("view"),
+        "--sim".as_ref(),
+        sim.as_os_str(),
+        "--seconds".as_ref(),
+        "1".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]));
+    assert!(err.contains("50 frames") && err.contains("HOAP-2"), "{err}");
+    assert!(std::fs::read_to_string(&out).unwrap().contains("simulated in MuJoCo"));
+    std::fs::write(&sim, "{\n \"upright_s\": \"long\"\n}").unwrap();
+    let o = cpg(&[OsStr::new("view"), "--sim".as_ref(), sim.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("run.json:2") && err.contains("not a cpg-sim run"), "{err}");
+}

@@ -151,47 +151,37 @@ impl Figure {
     /// its lowest point touches the floor, and the body moves horizontally so
     /// that this point does not slide from one frame to the next.
     pub fn robot(label: &str, robot: &Robot, t: &JointTrajectory) -> Result<Figure> {
-        let n = t.n_frames();
-        let mut names = vec![robot.joints.first().map_or_else(|| "root".to_owned(), |j| j.parent.clone())];
-        names.extend(robot.joints.iter().map(|j| j.child.clone()));
-        // The parent point of each joint: the joint whose child link is this joint's parent link.
-        let parent_point =
-            |j: &cpg_hoap2::Joint| robot.joints.iter().position(|p| p.child == j.parent).map_or(0, |p| p + 1);
-        let mut segments: Vec<(usize, usize, Side)> = robot
-            .joints
-            .iter()
-            .enumerate()
-            .filter(|(_, j)| j.origin_m.iter().any(|v| v.abs() > 1e-9))
-            .map(|(k, j)| (parent_point(j), k + 1, Side::of(&j.name)))
-            .collect();
-        // The soles: below the last joint of each leg.
-        let leaves: Vec<usize> = (0..robot.joints.len())
-            .filter(|&k| {
-                let j = &robot.joints[k];
-                let leg = j.name.starts_with("lleg") || j.name.starts_with("rleg");
-                leg && !robot.joints.iter().any(|c| c.parent == j.child)
-            })
-            .collect();
-        for &k in &leaves {
-            names.push(format!("{}_sole", robot.joints[k].child));
-            segments.push((k + 1, names.len() - 1, Side::of(&robot.joints[k].name)));
-        }
-        let n_pts = names.len();
-        check_frames(n, n_pts)?;
         let d = t.joints.len();
-        let mut points = Vec::with_capacity(n * n_pts);
-        // URDF (x forward, y left, z up, m) → viewer (x left, y up, z forward, mm).
-        let turn = |p: nalgebra::Point3<f64>| [(p.y * 1000.0) as f32, (p.z * 1000.0) as f32, (p.x * 1000.0) as f32];
-        for f in 0..n {
-            let poses = robot.link_poses(&t.joints, &t.values_rad[f * d..(f + 1) * d])?;
-            points.push(turn(nalgebra::Point3::origin()));
-            points.extend(poses.iter().map(|p| turn(p * nalgebra::Point3::origin())));
-            for &k in &leaves {
-                points.push(turn(poses[k] * nalgebra::Point3::from(cpg_hoap2::SOLE_IN_ANKLE_M)));
-            }
+        let mut f = robot_figure(label, robot, t.n_frames(), &t.joints, |k| (&t.values_rad[k * d..(k + 1) * d], None))?;
+        let n_pts = f.names.len();
+        plant(&mut f.points_mm, n_pts);
+        Ok(f)
+    }
+
+    /// A robot where a physics simulation put it: frame `k` has the joint
+    /// angles `q_rad[k * joints.len()..]` and the root link's pose in the
+    /// world `base[k]` (`[x, y, z]` in m, z up, and the orientation as a unit
+    /// quaternion `[w, x, y, z]`), nothing planted or moved.
+    pub fn robot_posed(
+        label: &str,
+        robot: &Robot,
+        joints: &[String],
+        q_rad: &[f64],
+        base: &[([f64; 3], [f64; 4])],
+    ) -> Result<Figure> {
+        let d = joints.len();
+        if q_rad.len() != base.len() * d {
+            return Err(Error::Input(format!("{} angles for {} frames of {d} joints", q_rad.len(), base.len())));
         }
-        plant(&mut points, n_pts);
-        Ok(Figure { label: label.to_owned(), note: String::new(), names, segments, points_mm: points })
+        if base.iter().flat_map(|(p, q)| p.iter().chain(q)).any(|v| !v.is_finite()) {
+            return Err(Error::Input("a base pose is not finite".into()));
+        }
+        robot_figure(label, robot, base.len(), joints, |k| {
+            let (p, q) = base[k];
+            let rot = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+            let at = nalgebra::Isometry3::from_parts(nalgebra::Translation3::new(p[0], p[1], p[2]), rot);
+            (&q_rad[k * d..(k + 1) * d], Some(at))
+        })
     }
 
     /// The same figure with a note under its panel.
@@ -204,6 +194,63 @@ impl Figure {
     pub fn height_mm(&self) -> f32 {
         self.points_mm.iter().map(|p| p[1]).fold(0.0, f32::max)
     }
+}
+
+/// A robot's stick figure over `n` frames: `frame(k)` gives the joint angles
+/// (in the order of `joints`) and the root link's pose in the world (`None`:
+/// at the origin, the points exactly as the link poses give them).
+fn robot_figure<'a>(
+    label: &str,
+    robot: &Robot,
+    n: usize,
+    joints: &[String],
+    frame: impl Fn(usize) -> (&'a [f64], Option<nalgebra::Isometry3<f64>>),
+) -> Result<Figure> {
+    let mut names = vec![robot.joints.first().map_or_else(|| "root".to_owned(), |j| j.parent.clone())];
+    names.extend(robot.joints.iter().map(|j| j.child.clone()));
+    // The parent point of each joint: the joint whose child link is this joint's parent link.
+    let parent_point =
+        |j: &cpg_hoap2::Joint| robot.joints.iter().position(|p| p.child == j.parent).map_or(0, |p| p + 1);
+    let mut segments: Vec<(usize, usize, Side)> = robot
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| j.origin_m.iter().any(|v| v.abs() > 1e-9))
+        .map(|(k, j)| (parent_point(j), k + 1, Side::of(&j.name)))
+        .collect();
+    // The soles: below the last joint of each leg.
+    let leaves: Vec<usize> = (0..robot.joints.len())
+        .filter(|&k| {
+            let j = &robot.joints[k];
+            let leg = j.name.starts_with("lleg") || j.name.starts_with("rleg");
+            leg && !robot.joints.iter().any(|c| c.parent == j.child)
+        })
+        .collect();
+    for &k in &leaves {
+        names.push(format!("{}_sole", robot.joints[k].child));
+        segments.push((k + 1, names.len() - 1, Side::of(&robot.joints[k].name)));
+    }
+    let n_pts = names.len();
+    check_frames(n, n_pts)?;
+    let mut points = Vec::with_capacity(n * n_pts);
+    // URDF (x forward, y left, z up, m) → viewer (x left, y up, z forward, mm).
+    let turn = |p: nalgebra::Point3<f64>| [(p.y * 1000.0) as f32, (p.z * 1000.0) as f32, (p.x * 1000.0) as f32];
+    for f in 0..n {
+        let (q, base) = frame(f);
+        let mut poses = robot.link_poses(joints, q)?;
+        match base {
+            Some(b) => {
+                poses.iter_mut().for_each(|p| *p = b * *p);
+                points.push(turn(b * nalgebra::Point3::origin()));
+            }
+            None => points.push(turn(nalgebra::Point3::origin())),
+        }
+        points.extend(poses.iter().map(|p| turn(p * nalgebra::Point3::origin())));
+        for &k in &leaves {
+            points.push(turn(poses[k] * nalgebra::Point3::from(cpg_hoap2::SOLE_IN_ANKLE_M)));
+        }
+    }
+    Ok(Figure { label: label.to_owned(), note: String::new(), names, segments, points_mm: points })
 }
 
 fn check_frames(n_frames: usize, n_points: usize) -> Result<()> {

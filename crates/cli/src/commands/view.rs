@@ -20,6 +20,7 @@ pub struct View<'a> {
     pub control_file: Option<&'a Path>,
     pub motion: Option<&'a Path>,
     pub skeleton: Option<&'a Path>,
+    pub sim: Option<&'a Path>,
     pub motion_rate_hz: Option<f64>,
     pub bvh_unit_mm: Option<f64>,
     pub seconds: f64,
@@ -40,13 +41,14 @@ pub fn run(a: View<'_>) -> anyhow::Result<()> {
         bail!("--yaw-deg {}: expected an angle from -360 to 360", a.yaw_deg);
     }
     let dest = check_writable(a.output)?;
-    let mut scene = match (a.model, a.motion) {
-        (Some(_), Some(_)) => bail!("give either --model or --motion, not both"),
-        (None, None) => {
-            bail!("give --model FILE.cpg (a trained CPG) or --motion FILE.amc with --skeleton (a recording)")
-        }
-        (Some(model), None) => model_scene(&a, model)?,
-        (None, Some(motion)) => recording_scene(&a, motion)?,
+    let mut scene = match (a.model, a.motion, a.sim) {
+        (Some(model), None, None) => model_scene(&a, model)?,
+        (None, Some(motion), None) => recording_scene(&a, motion)?,
+        (None, None, Some(sim)) => sim_scene(&a, sim)?,
+        (None, None, None) => bail!(
+            "give --model FILE.cpg (a trained CPG), --motion FILE.amc with --skeleton (a recording) or --sim RUN.json (a simulated run)"
+        ),
+        _ => bail!("give one of --model, --motion and --sim"),
     };
     scene.camera = Camera { yaw_deg: a.yaw_deg, ..Camera::default() };
     let gif = GifOptions { seconds: Some(a.gif_seconds), fps: a.fps, ..GifOptions::default() };
@@ -78,6 +80,14 @@ fn model_scene(a: &View<'_>, model: &Path) -> anyhow::Result<Scene> {
     };
     let title = model.file_name().map_or_else(|| model.display().to_string(), |f| f.to_string_lossy().into_owned());
     cpg_lab::scene::model_scene(&title, &m, &controls, n, robot).with_context(|| format!("drawing {}", model.display()))
+}
+
+fn sim_scene(a: &View<'_>, sim: &Path) -> anyhow::Result<Scene> {
+    let bytes = cpg_mocap::read_bounded(sim, cpg_mocap::MAX_INPUT_BYTES)?;
+    let text = String::from_utf8(bytes).with_context(|| format!("{}: not UTF-8 text", sim.display()))?;
+    let run = cpg_lab::experiment::walking::SimRun::from_json(&text, sim)?;
+    let name = sim.file_name().map_or_else(|| sim.display().to_string(), |f| f.to_string_lossy().into_owned());
+    run.scene(&name, Some(a.seconds)).with_context(|| format!("drawing {}", sim.display()))
 }
 
 fn recording_scene(a: &View<'_>, motion: &Path) -> anyhow::Result<Scene> {

@@ -49,6 +49,54 @@ pub struct SimRun {
     /// The soles' contact forces at 50 Hz: `[t_s, left_n, right_n]` (recorded runs only).
     #[serde(default)]
     pub contacts_n: Vec<[f64; 3]>,
+    /// The servoed joints, in the order of the angles in `poses` (recorded runs only).
+    #[serde(default)]
+    pub pose_joints: Vec<String>,
+    /// The body at 50 Hz: `[t_s, x_m, y_m, z_m, qw, qx, qy, qz, angle_rad…]`,
+    /// the trunk's position and orientation, then every joint of `pose_joints`.
+    #[serde(default, skip_serializing)]
+    pub poses: Vec<Vec<f64>>,
+}
+
+impl SimRun {
+    /// Reads a run `cpg-sim -o` wrote; `file` names it in errors.
+    pub fn from_json(text: &str, file: &std::path::Path) -> Result<SimRun> {
+        serde_json::from_str(text)
+            .map_err(|e| Error::data_file(file, Some(e.line()), format!("not a cpg-sim run: {e}")))
+    }
+
+    /// The recorded body as a scene to watch: the HOAP-2 where the physics
+    /// put it (`cpg view --sim`, the report's walking page), its first
+    /// `seconds` (all of it: `None`).
+    pub fn scene(&self, title: &str, seconds: Option<f64>) -> Result<cpg_view::Scene> {
+        let d = self.pose_joints.len();
+        if self.poses.len() < 2 || d == 0 {
+            return Err(Error::Unusable(
+                "the run holds no body poses (cpg-sim records them with -o, cpg.walk_eval for the first seed)".into(),
+            ));
+        }
+        if let Some(k) = self.poses.iter().position(|p| p.len() != 8 + d) {
+            return Err(Error::Shape(format!("pose {k} has {} values; expected 8 + {d}", self.poses[k].len())));
+        }
+        let robot = cpg_hoap2::Robot::hoap2()?;
+        let rate = 1.0 / (self.poses[1][0] - self.poses[0][0]);
+        if !(rate.is_finite() && rate > 0.0) {
+            return Err(Error::Shape("the poses' times do not increase".into()));
+        }
+        let n = seconds.map_or(self.poses.len(), |s| ((s * rate).round() as usize).clamp(1, self.poses.len()));
+        let poses = &self.poses[..n];
+        let base: Vec<([f64; 3], [f64; 4])> =
+            poses.iter().map(|p| ([p[1], p[2], p[3]], [p[4], p[5], p[6], p[7]])).collect();
+        let q: Vec<f64> = poses.iter().flat_map(|p| p[8..].iter().copied()).collect();
+        let fig =
+            cpg_view::Figure::robot_posed(&crate::scene::robot_label(&robot), &robot, &self.pose_joints, &q, &base)
+                .map_err(crate::scene::view_error)?
+                .with_note(format!(
+                    "simulated in MuJoCo: {:.1} s upright, {:.2} m forward, heading {:+.1}°",
+                    self.upright_s, self.forward_m, self.heading_deg
+                ));
+        cpg_view::Scene::new(title, rate, vec![fig]).map_err(crate::scene::view_error)
+    }
 }
 
 /// A walker's three runs.
@@ -377,6 +425,8 @@ mod tests {
             pushes_total: pushes.1,
             trunk_path: Vec::new(),
             contacts_n: Vec::new(),
+            pose_joints: Vec::new(),
+            poses: Vec::new(),
         }
     }
 

@@ -226,6 +226,9 @@ def simulate(
     fell_at = None
     path = []
     contacts = []
+    poses = []  # t, the trunk's position and orientation (w, x, y, z), every servoed joint's angle
+    pose_joints = [model.actuator(k).name for k in range(model.nu)]
+    all_q = np.array([model.jnt_qposadr[model.joint(j).id] for j in pose_joints])
     n = int(round(total / dt))
     for step in range(n):
         t = step * dt
@@ -271,8 +274,14 @@ def simulate(
                 target[j["hip_roll"]] -= gains.hip_roll_kp * roll
             if j["hip_yaw"] is not None:
                 target[j["hip_yaw"]] -= gains.hip_yaw_kp * yaw
+        # The ufuncs in place: np.clip's wrapper costs more than the work here.
         step_max = SPEED_LIMIT_RAD_S * dt
-        cmd = np.clip(cmd + np.clip(target - cmd, -step_max, step_max), lo, hi)
+        delta = target - cmd
+        np.minimum(delta, step_max, out=delta)
+        np.maximum(delta, -step_max, out=delta)
+        cmd += delta
+        np.minimum(cmd, hi, out=cmd)
+        np.maximum(cmd, lo, out=cmd)
         data.ctrl[act] = cmd
         # Pushes.
         if t >= next_push and push_left <= 0:
@@ -286,8 +295,8 @@ def simulate(
         push_left -= dt
         mujoco.mj_step(model, data)
         f = data.actuator_force
-        torque_max = max(torque_max, float(np.max(np.abs(f))))
-        work_j += float(np.sum(np.abs(f * data.actuator_velocity))) * dt
+        torque_max = max(torque_max, float(f.max()), -float(f.min()))
+        work_j += float(np.abs(f * data.actuator_velocity).sum()) * dt
         up_z = data.xmat[trunk].reshape(3, 3)[2, 2]
         if data.xpos[trunk][2] < 0.6 * stand_z or up_z < math.cos(math.radians(45)):
             fell_at = t + dt
@@ -298,6 +307,7 @@ def simulate(
         if record_every and step % record_every == 0:
             path.append([t, *map(float, data.xpos[trunk])])
             contacts.append([t, float(touch[0]), float(touch[1])])
+            poses.append([t, *map(float, data.xpos[trunk]), *map(float, data.xquat[trunk]), *map(float, data.qpos[all_q])])
     steps_run = step + 1 if n else 0
     end = data.xpos[trunk] - start
     m = data.xmat[trunk].reshape(3, 3)
@@ -323,6 +333,8 @@ def simulate(
     if record_every:
         out["trunk_path"] = path
         out["contacts_n"] = contacts
+        out["pose_joints"] = pose_joints
+        out["poses"] = poses
     return out
 
 
@@ -383,6 +395,15 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
     return gen, drive, rate, first, first, handover_s, handover_s
 
 
+def _umask() -> int:
+    """The process's file-creation mask (read by setting it back)."""
+    import os
+
+    m = os.umask(0)
+    os.umask(m)
+    return m
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="cpg-sim", description=__doc__.split("\n\n")[0])
     p.add_argument("--trajectory", required=True, help="a walk as `cpg retarget` writes it (CSV); with --model, the start")
@@ -396,7 +417,7 @@ def main(argv=None) -> int:
     p.add_argument("--tempo-at-s", type=float, default=0.0, help="when the tempo changes, s")
     p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE")
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
-    p.add_argument("-o", "--output", help="write the measures (with the trunk path and contacts) as JSON here")
+    p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here")
     a = p.parse_args(argv)
     try:
         gains = Gains()
@@ -438,8 +459,9 @@ def main(argv=None) -> int:
         fd, tmp = tempfile.mkstemp(dir=d, prefix=".cpg-sim-")
         with os.fdopen(fd, "w") as f:
             json.dump(r, f)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, a.output)
-    summary = {k: v for k, v in r.items() if k not in ("trunk_path", "contacts_n")}
+    summary = {k: v for k, v in r.items() if k not in ("trunk_path", "contacts_n", "pose_joints", "poses")}
     if a.json:
         print(json.dumps(summary, indent=2))
     else:

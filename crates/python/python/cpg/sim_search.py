@@ -108,6 +108,12 @@ def main(argv=None) -> int:
         help="a trained CPG of the walk (channels JOINT.rx) that drives after the hand-over (repeat: one per seed)",
     )
     p.add_argument("--tempo", type=float, default=1.1, help="with --model: the tempo change of the third run")
+    p.add_argument(
+        "--start-from",
+        action="append",
+        default=[],
+        help="gains (JSON of cpg.sim.Gains) the study tries first (repeat for several)",
+    )
     p.add_argument("-o", "--output", help="write the best gains (JSON) here")
     a = p.parse_args(argv)
     try:
@@ -124,7 +130,14 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as e:
         print(f"cpg.sim_search: {e}", file=sys.stderr)
         return 2
-    optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
+    study = optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
+    for path in a.start_from:
+        try:
+            g = Gains.from_json(open(path, encoding="utf-8").read())
+        except (OSError, ValueError) as e:
+            print(f"cpg.sim_search: {path}: {e}", file=sys.stderr)
+            return 2
+        study.enqueue_trial({k: getattr(g, k) for k in [*SPACE, "phase_reset"]})
     jobs = [
         (a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k, a.model, a.tempo) for k in range(a.workers)
     ]

@@ -24,7 +24,7 @@ import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from cpg.sim import Gains, fit_walk, read_trajectory, simulate
+from cpg.sim import Gains, _umask, fit_walk, read_trajectory, simulate
 
 #: Every 20th physics step (50 Hz) of the recorded runs.
 RECORD_EVERY = 20
@@ -126,6 +126,7 @@ def main(argv=None) -> int:
     fd, tmp = tempfile.mkstemp(dir=d, prefix=".walk-eval-")
     with os.fdopen(fd, "w") as f:
         json.dump(out, f, indent=1)
+    os.chmod(tmp, 0o666 & ~_umask())
     os.replace(tmp, a.output)
     for row in ("cpg", "cpg+feedback"):
         for c in ("flat", "pushes", "tempo"):

@@ -4,6 +4,24 @@ use super::{Row, WalkingResult};
 use crate::experiment::doc::*;
 use crate::stats::Spread;
 
+/// Seconds of the flat run the report's page shows.
+const VIEW_S: f64 = 30.0;
+
+/// The gains as `name value` pairs.
+fn gains(g: &serde_json::Value) -> String {
+    match g.as_object() {
+        Some(m) => m
+            .iter()
+            .map(|(k, v)| match v.as_f64() {
+                Some(x) => format!("{k} {x:.3}"),
+                None => format!("{k} {v}"),
+            })
+            .collect::<Vec<_>>()
+            .join(", "),
+        None => g.to_string(),
+    }
+}
+
 /// `median (lo–hi)` of `v` with `digits` decimals, or `—`.
 fn spread(v: &[f64], digits: usize) -> String {
     if v.is_empty() {
@@ -48,7 +66,7 @@ pub fn section(s: &mut Section, r: &WalkingResult, ctx: &Context) {
         e.push_every_s,
         e.tempo,
         e.tempo_ramp_s,
-        e.gains
+        gains(&e.gains)
     ));
     s.blank();
     let rows: Vec<Vec<String>> = r.rows.iter().map(row_cells).collect();
@@ -138,4 +156,7 @@ fn figures(s: &mut Section, r: &WalkingResult) {
         first.seed
     ));
     s.blank();
+    let title = format!("the HOAP-2 in MuJoCo on its CPG (seed {}, with feedback, flat ground)", first.seed);
+    let scene = flat.scene(&title, Some(VIEW_S)).ok();
+    view(s, scene.as_ref(), "walking_view", "the first seed with feedback", "the simulated body on flat ground", None);
 }
