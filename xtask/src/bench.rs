@@ -370,6 +370,7 @@ fn run_in(args: &Args, e1: &cpg_lab::Config, f: &Prepared, cpg: &Path, dir: &Pat
     }
     let e1_max = most(&|p| p.train.zip(p.generate).map(|(a, b)| a.max(b)));
     tune_throughput(cpg, dir, &mut memory)?;
+    closed_loop(cpg, dir)?;
     if !args.no_evaluate {
         evaluation(dir, &mut memory)?;
     }
@@ -1009,7 +1010,71 @@ fn tune_throughput(cpg: &Path, dir: &Path, memory: &mut Memory) -> anyhow::Resul
     Ok(())
 }
 
-/// Part 4b: the full evaluation, timed section by section.
+/// The script that times the closed loop: the walk's CPG (seed 1) with the
+/// feedback, 60 s on flat ground at 1 kHz in one process, beside MuJoCo's
+/// steps alone (the floor: physics, no controller) for as many steps.
+const CLOSED_LOOP_PY: &str = r#"
+import json, sys, time
+import mujoco, numpy as np
+import cpg
+from cpg.sim import Gains, read_trajectory, simulate
+walk = read_trajectory(sys.argv[1])
+model = cpg.train(sys.argv[2], seed=1)
+gains = Gains.from_json(open(sys.argv[3]).read())
+t0 = time.perf_counter()
+r = simulate(*walk, seconds=60.0, gains=gains, cpg_model=model)
+loop_s = time.perf_counter() - t0
+m = mujoco.MjModel.from_xml_string(cpg.hoap2_mjcf())
+d = mujoco.MjData(m)
+mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+t0 = time.perf_counter()
+for _ in range(int(round(r["upright_s"] / m.opt.timestep))):
+    mujoco.mj_step(m, d)
+physics_s = time.perf_counter() - t0
+print(json.dumps({"sim_s": r["upright_s"], "loop_s": loop_s, "physics_s": physics_s, "fell": r["fell"]}))
+"#;
+
+/// Part 4b: the HOAP-2's closed loop in MuJoCo, against real time and against the physics alone.
+fn closed_loop(cpg: &Path, dir: &Path) -> anyhow::Result<()> {
+    println!("\n## The closed loop in MuJoCo (one core)\n");
+    let py = crate::python::install()?;
+    let root = crate::root();
+    let walk = dir.join("walk.csv");
+    let config = root.join("experiments/hoap2-walk.toml");
+    let c = cpg_lab::Config::load(&config)?;
+    let Some(cpg_lab::config::ExperimentTest::Walking(t)) = c.experiment.as_ref().map(|e| &e.test) else {
+        anyhow::bail!("{}: not a walking experiment", config.display())
+    };
+    crate::report::walking::plan_start_walk(cpg, &c, t.start_steps, &walk)?;
+    let ran = run_child(
+        Command::new(&py).arg("-c").arg(CLOSED_LOOP_PY).arg(&walk).arg(&config).arg(&t.gains),
+        "the closed loop",
+        false,
+    )?;
+    let v: serde_json::Value = serde_json::from_slice(&ran.stdout).context("reading the closed loop's JSON")?;
+    let (sim, loop_s, physics) = (
+        v["sim_s"].as_f64().unwrap_or(0.0),
+        v["loop_s"].as_f64().unwrap_or(f64::NAN),
+        v["physics_s"].as_f64().unwrap_or(f64::NAN),
+    );
+    println!("| what | simulated | wall | × real time | target | verdict |");
+    println!("|---|---:|---:|---:|---|---|");
+    println!(
+        "| the CPG with feedback at 1 kHz (`cpg.sim.simulate`, the generator stepped inside the loop){} | {sim:.1} s | {} | {:.1}× | ≥ 20× | {} |",
+        if v["fell"].as_bool() == Some(true) { " — it fell" } else { "" },
+        secs(loop_s),
+        sim / loop_s,
+        verdict(sim / loop_s >= 20.0)
+    );
+    println!(
+        "| MuJoCo's steps alone, as many (the floor) | {sim:.1} s | {} | {:.1}× | | |",
+        secs(physics),
+        sim / physics
+    );
+    Ok(())
+}
+
+/// Part 4c: the full evaluation, timed section by section.
 fn evaluation(dir: &Path, memory: &mut Memory) -> anyhow::Result<()> {
     let out = dir.join("report");
     println!("\n`cargo xtask evaluate` (10 seeds in every experiment), its own progress below:\n");

@@ -66,8 +66,9 @@ enum Command {
     /// the weight-streaming floor; one stream split over both cores with its
     /// synchronisation cost; the training phases; f32 against f64 accuracy;
     /// E1's pipeline (with --vs-reservoirpy, beside ReservoirPy); `cpg tune`'s
-    /// configurations per minute; the full evaluation's time by section; and
-    /// the peak memory of each process.
+    /// configurations per minute; the HOAP-2's closed loop in MuJoCo against
+    /// real time; the full evaluation's time by section; and the peak memory
+    /// of each process.
     Bench(bench::Args),
     /// Write the HOAP-2's physical model: assets/hoap2/hoap2.urdf (each link's
     /// centre of mass, inertia and collision box from cpg-hoap2's shape table,

@@ -639,6 +639,12 @@ pub struct WalkingSection {
     /// Seconds of the cosine ramp of the tempo change.
     #[serde(default = "default_tempo_ramp_s")]
     pub tempo_ramp_s: f64,
+    /// Seconds of each CPG's free run at each tempo it was taught, judged as every model is.
+    #[serde(default = "default_long")]
+    pub judge_s: f64,
+    /// The same in a quick run.
+    #[serde(default = "default_quick_long")]
+    pub quick_judge_s: f64,
     /// Steps of the planned walk the runs start from (the CPG takes over at its 10th left touch-down).
     #[serde(default = "default_start_steps")]
     pub start_steps: usize,
@@ -682,6 +688,8 @@ impl WalkingSection {
             return Err(("tempo".into(), format!("{}; expected 0.5 to 2", self.tempo)));
         }
         seconds_within("tempo_ramp_s", self.tempo_ramp_s, 0.0, 60.0)?;
+        seconds_within("judge_s", self.judge_s, 10.0, DAY_S)?;
+        seconds_within("quick_judge_s", self.quick_judge_s, 10.0, DAY_S)?;
         if !(12..=MAX_RETARGET_STEPS).contains(&self.start_steps) {
             return Err(("start_steps".into(), format!("{}; expected 12 to {MAX_RETARGET_STEPS}", self.start_steps)));
         }

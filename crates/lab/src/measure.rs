@@ -166,7 +166,7 @@ pub fn stability(y: &[f64], d: usize, teacher: &Teacher, reference: usize, rate_
 }
 
 /// What a perturbed run did, against its unperturbed twin.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct Recovery {
     /// Seconds from the release until the run is back on the teacher's orbit.
     pub orbit_s: Option<f64>,

@@ -6,7 +6,7 @@ mod fmt;
 mod summary;
 #[cfg(test)]
 mod tests;
-mod walking;
+pub(crate) mod walking;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -15,43 +15,16 @@ use crate::process::cmd;
 pub fn run(work: &Path, c: &Config, quick: bool, threads: usize) -> anyhow::Result<WalkingResult> {
     let Some(e) = &c.experiment else { bail!("{}: no [experiment]", c.source.display()) };
     let ExperimentTest::Walking(t) = &e.test else { bail!("{}: not a walking experiment", c.source.display()) };
-    let Some(r) = &c.data.retarget else {
-        bail!("{}: a walking experiment learns a [data.retarget] walk", c.source.display())
-    };
     let root = crate::root();
     let py = crate::python::install().context("installing the Python package the simulations run in")?;
-    let cpg = root.join("target/release/cpg").display().to_string();
+    let cpg_bin = root.join("target/release/cpg");
+    let cpg = cpg_bin.display().to_string();
     let w = |name: &str| work.join(name).display().to_string();
     let path = |p: &Path| p.display().to_string();
-    // The walk the runs start from: planned as the configuration learns it, longer.
-    let mut args: Vec<String> = vec!["retarget".into()];
-    if let Some(s) = &c.data.skeleton {
-        args.extend(["-s".into(), path(s)]);
-    }
-    for trial in &r.trials {
-        args.extend(["-m".into(), path(trial)]);
-    }
-    args.extend([
-        "--steps".into(),
-        t.start_steps.to_string(),
-        "--step-scale".into(),
-        r.step_scale.to_string(),
-        "--lift-scale".into(),
-        r.lift_scale.to_string(),
-        "--arm-scale".into(),
-        r.arm_scale.to_string(),
-        "--plan-rate-hz".into(),
-        c.data.rate_hz.to_string(),
-        "--rate-hz".into(),
-        r.trial_rate_hz.to_string(),
-    ]);
-    if let Some(d) = r.double_support_share {
-        args.extend(["--double-support-share".into(), d.to_string()]);
-    }
-    args.extend(["-o".into(), w("walk.csv")]);
-    cmd(&cpg, &args.iter().map(String::as_str).collect::<Vec<_>>(), &[])?;
+    plan_start_walk(&cpg_bin, c, t.start_steps, &work.join("walk.csv"))?;
     let seconds = if quick { t.quick_run_s } else { t.run_s }.to_string();
     let seeds = if quick { e.quick_seeds.min(e.seeds) } else { e.seeds }.to_string();
+    let judge_s = if quick { t.quick_judge_s } else { t.judge_s }.to_string();
     let first = c.reservoir.seed.to_string();
     let workers = threads.max(1).to_string();
     let mut eval: Vec<String> = [
@@ -77,6 +50,8 @@ pub fn run(work: &Path, c: &Config, quick: bool, threads: usize) -> anyhow::Resu
         &t.tempo.to_string(),
         "--tempo-ramp-s",
         &t.tempo_ramp_s.to_string(),
+        "--judge-s",
+        &judge_s,
         "--workers",
         &workers,
         "-o",
@@ -99,4 +74,41 @@ pub fn run(work: &Path, c: &Config, quick: bool, threads: usize) -> anyhow::Resu
     let out = work.join("walking.json");
     let text = std::fs::read_to_string(&out).with_context(|| format!("reading {}", out.display()))?;
     Ok(judge(c, WalkEval::from_json(&text, &out)?)?)
+}
+
+/// Plans the walk the simulated runs start from into `out`: `cpg retarget`
+/// (the binary `cpg`)
+/// on configuration `c`'s `[data.retarget]` trials with its settings, for
+/// `steps` steps (longer than the loop the CPG learns).
+pub fn plan_start_walk(cpg: &Path, c: &Config, steps: usize, out: &Path) -> anyhow::Result<()> {
+    let Some(r) = &c.data.retarget else {
+        bail!("{}: a walking experiment learns a [data.retarget] walk", c.source.display())
+    };
+    let path = |p: &Path| p.display().to_string();
+    let mut args: Vec<String> = vec!["retarget".into()];
+    if let Some(s) = &c.data.skeleton {
+        args.extend(["-s".into(), path(s)]);
+    }
+    for trial in &r.trials {
+        args.extend(["-m".into(), path(trial)]);
+    }
+    args.extend([
+        "--steps".into(),
+        steps.to_string(),
+        "--step-scale".into(),
+        r.step_scale.to_string(),
+        "--lift-scale".into(),
+        r.lift_scale.to_string(),
+        "--arm-scale".into(),
+        r.arm_scale.to_string(),
+        "--plan-rate-hz".into(),
+        c.data.rate_hz.to_string(),
+        "--rate-hz".into(),
+        r.trial_rate_hz.to_string(),
+    ]);
+    if let Some(d) = r.double_support_share {
+        args.extend(["--double-support-share".into(), d.to_string()]);
+    }
+    args.extend(["-o".into(), path(out)]);
+    cmd(&path(cpg), &args.iter().map(String::as_str).collect::<Vec<_>>(), &[])
 }

@@ -95,7 +95,7 @@ def read_trajectory(path: str):
 
 
 def _tilt(quat):
-    w, x, y, z = quat
+    w, x, y, z = quat  # Python floats: their arithmetic is the same IEEE double, faster than numpy scalars'
     roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
     yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
@@ -152,9 +152,10 @@ def simulate(
     lo, hi = model.actuator_ctrlrange[act, 0], model.actuator_ctrlrange[act, 1]
     qadr = np.array([model.jnt_qposadr[model.joint(j).id] for j in joints])
     idx = {j: k for k, j in enumerate(joints)}
-    legs = {
-        side: {n: idx.get(f"{side}leg_joint_{k}") for n, k in (("hip_yaw", 1), ("hip_roll", 2), ("hip_pitch", 3), ("ankle_pitch", 5), ("ankle_roll", 6))}
-        for side in "lr"
+    # The joints each attitude gain moves, left then right (those the walk drives).
+    fed = {
+        n: np.array([idx[f"{side}leg_joint_{k}"] for side in "lr" if f"{side}leg_joint_{k}" in idx], dtype=int)
+        for n, k in (("hip_yaw", 1), ("hip_roll", 2), ("hip_pitch", 3), ("ankle_pitch", 5), ("ankle_roll", 6))
     }
     duration = float(times_s[-1] - times_s[0])
     total = duration if seconds is None else float(seconds)
@@ -173,6 +174,7 @@ def simulate(
         return angles_rad[i] * (1.0 - f) + angles_rad[i + 1] * f
 
     first = frame_at(0.0)
+    held = (math.nan, first)  # the last clock read and its frame (the clock stops after the hand-over)
     data.qpos[qadr] = first
     data.ctrl[act] = first
     mujoco.mj_forward(model, data)
@@ -215,7 +217,7 @@ def simulate(
     clock = 0.0
     waited = 0.0
     cmd = first.copy()
-    torque_max = 0.0
+    fall_z, fall_up = 0.6 * stand_z, math.cos(math.radians(45))  # below 60 % of its height, tilted beyond 45°
     work_j = 0.0
     pushes_total = pushes_survived = 0
     push_left = 0.0
@@ -230,11 +232,19 @@ def simulate(
     pose_joints = [model.actuator(k).name for k in range(model.nu)]
     all_q = np.array([model.jnt_qposadr[model.joint(j).id] for j in pose_joints])
     n = int(round(total / dt))
+    clock_end = float(clock_t[-1])
+    f_abs = np.zeros(model.nu)
+    torque_peak = np.zeros(model.nu)  # each servo's largest |torque| so far
+    trunk_z = data.xpos[trunk][2:]  # views: MjData's arrays stay where they are
+    trunk_up = data.xmat[trunk][8:]
+    pushing = False
     for step in range(n):
         t = step * dt
         rate = tempo if t >= tempo_at_s else 1.0
         # Contact feedback on the gait's clock.
-        touch = data.sensordata[touch_adr]
+        sensed = data.sensordata
+        recording = record_every and step % record_every == 0
+        touch = sensed[touch_adr] if gains.phase_reset or recording else None
         advance = dt * rate
         if gains.phase_reset and land_k < len(landings):
             t_land, foot = landings[land_k]
@@ -244,11 +254,13 @@ def simulate(
                 waited += dt
             elif loaded and t_land - clock < 0.15 * rate and clock < t_land:
                 advance = t_land - clock  # landed early: jump to the touch-down
-        clock = min(clock + advance, clock_t[-1])
+        clock = min(clock + advance, clock_end)
         while land_k < len(landings) and clock >= landings[land_k][0]:
             land_k += 1
             waited = 0.0
-        target = frame_at(clock)
+        if clock != held[0]:
+            held = (clock, frame_at(clock))
+        target = held[1].copy()
         if gen is not None and t >= handover_s:
             # The generator steps inside the loop; between its steps the command is interpolated.
             g_rate = gen_rate if tempo_by_input else gen_rate * rate
@@ -260,20 +272,13 @@ def simulate(
             target[drive] = gen_prev * (1.0 - f) + gen_next * f
             clock = min(clock, handover_s)
         # Attitude feedback from the IMU.
-        roll, pitch, yaw = _tilt(data.sensordata[quat_adr : quat_adr + 4])
-        wx, wy = data.sensordata[gyro_adr], data.sensordata[gyro_adr + 1]
-        for side in "lr":
-            j = legs[side]
-            if j["ankle_pitch"] is not None:
-                target[j["ankle_pitch"]] -= gains.ankle_pitch_kp * pitch + gains.ankle_pitch_kd * wy
-            if j["ankle_roll"] is not None:
-                target[j["ankle_roll"]] -= gains.ankle_roll_kp * roll + gains.ankle_roll_kd * wx
-            if j["hip_pitch"] is not None:
-                target[j["hip_pitch"]] -= gains.hip_pitch_kp * pitch
-            if j["hip_roll"] is not None:
-                target[j["hip_roll"]] -= gains.hip_roll_kp * roll
-            if j["hip_yaw"] is not None:
-                target[j["hip_yaw"]] -= gains.hip_yaw_kp * yaw
+        roll, pitch, yaw = _tilt(sensed[quat_adr : quat_adr + 4].tolist())
+        wx, wy = sensed[gyro_adr : gyro_adr + 2].tolist()
+        target[fed["ankle_pitch"]] -= gains.ankle_pitch_kp * pitch + gains.ankle_pitch_kd * wy
+        target[fed["ankle_roll"]] -= gains.ankle_roll_kp * roll + gains.ankle_roll_kd * wx
+        target[fed["hip_pitch"]] -= gains.hip_pitch_kp * pitch
+        target[fed["hip_roll"]] -= gains.hip_roll_kp * roll
+        target[fed["hip_yaw"]] -= gains.hip_yaw_kp * yaw
         # The ufuncs in place: np.clip's wrapper costs more than the work here.
         step_max = SPEED_LIMIT_RAD_S * dt
         delta = target - cmd
@@ -288,23 +293,26 @@ def simulate(
             dx, dy = DIRECTIONS[dirs[pushes_total % len(dirs)]]
             push_force = np.array([dx, dy, 0.0]) * mass * push_mps / PUSH_S
             push_left = PUSH_S
+            pushing = False  # a new force to apply, even right after the last push
             pushes_total += 1
             pending = t
             next_push += push_every_s
-        data.xfrc_applied[trunk, :3] = push_force if push_left > 0 else 0.0
+        if pushing != (push_left > 0):
+            pushing = push_left > 0
+            data.xfrc_applied[trunk, :3] = push_force if pushing else 0.0
         push_left -= dt
         mujoco.mj_step(model, data)
-        f = data.actuator_force
-        torque_max = max(torque_max, float(f.max()), -float(f.min()))
-        work_j += float(np.abs(f * data.actuator_velocity).sum()) * dt
-        up_z = data.xmat[trunk].reshape(3, 3)[2, 2]
-        if data.xpos[trunk][2] < 0.6 * stand_z or up_z < math.cos(math.radians(45)):
+        # |f·v| = |f|·|v| exactly; the ufuncs' reduce skips ndarray.max's and sum's wrappers.
+        np.abs(data.actuator_force, out=f_abs)
+        np.maximum(torque_peak, f_abs, out=torque_peak)
+        work_j += float(np.add.reduce(f_abs * np.abs(data.actuator_velocity))) * dt
+        if trunk_z[0] < fall_z or trunk_up[0] < fall_up:
             fell_at = t + dt
             break
         if pending is not None and t - pending >= min(2.0, push_every_s):
             pushes_survived += 1
             pending = None
-        if record_every and step % record_every == 0:
+        if recording:
             path.append([t, *map(float, data.xpos[trunk])])
             contacts.append([t, float(touch[0]), float(touch[1])])
             poses.append([t, *map(float, data.xpos[trunk]), *map(float, data.xquat[trunk]), *map(float, data.qpos[all_q])])
@@ -324,7 +332,7 @@ def simulate(
         "heading_deg": heading,
         "speed_m_s": float(end[0]) / upright if upright > 0 else 0.0,
         "speed_leg_lengths_s": float(end[0]) / upright / leg_m if upright > 0 else 0.0,
-        "max_torque_nm": torque_max,
+        "max_torque_nm": float(torque_peak.max()),
         "cost_of_transport": work_j / (mass * 9.81 * distance) if distance > 1e-3 else None,
         "pushes_survived": pushes_survived,
         "pushes_total": pushes_total,

@@ -51,6 +51,8 @@ def _one(job):
     else:
         model = fit_walk(*walk, seed=seed, neurons=a["neurons"])
     fit_s = time.perf_counter() - t0
+    # Judged as every model is: a long free run and the paper's push at each tempo it was taught.
+    judged = model.evaluate(seconds=a["judge_s"])
     rows = {}
     for name, g in (("cpg", Gains()), ("cpg+feedback", gains)):
         record = RECORD_EVERY if (seed == a["first_seed"] and name == "cpg+feedback") else 0
@@ -65,7 +67,7 @@ def _one(job):
             cpg_model=model,
             record_every=record,
         )
-    return seed, fit_s, repr(model), rows
+    return seed, fit_s, repr(model), judged, rows
 
 
 def main(argv=None) -> int:
@@ -82,6 +84,7 @@ def main(argv=None) -> int:
     p.add_argument("--tempo", type=float, default=1.1, help="the tempo change half-way through the third run")
     p.add_argument("--tempo-ramp-s", type=float, default=3.0, help="seconds of the tempo change's cosine ramp")
     p.add_argument("--neurons", type=int, default=600, help="without --config: the fitted CPG's size")
+    p.add_argument("--judge-s", type=float, default=900.0, help="each CPG's free run at each tempo it was taught, judged")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("-o", "--output", required=True)
     a = p.parse_args(argv)
@@ -104,6 +107,7 @@ def main(argv=None) -> int:
         "tempo_ramp_s": a.tempo_ramp_s,
         "neurons": a.neurons,
         "first_seed": a.first_seed,
+        "judge_s": a.judge_s,
     }
     out = {
         "trajectory": a.trajectory,
@@ -120,7 +124,9 @@ def main(argv=None) -> int:
     out["open_loop+feedback"] = cond(walk, gains=gains)
     jobs = [(a.trajectory, a.config, s, gains_json, opts) for s in range(a.first_seed, a.first_seed + a.seeds)]
     with ProcessPoolExecutor(a.workers) as pool:
-        out["seeds"] = [{"seed": s, "fit_s": f, "model": m, **rows} for s, f, m, rows in pool.map(_one, jobs)]
+        out["seeds"] = [
+            {"seed": s, "fit_s": f, "model": m, "judged": j, **rows} for s, f, m, j, rows in pool.map(_one, jobs)
+        ]
     out["wall_s"] = time.perf_counter() - t0
     d = os.path.dirname(os.path.abspath(a.output))
     fd, tmp = tempfile.mkstemp(dir=d, prefix=".walk-eval-")
