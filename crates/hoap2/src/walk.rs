@@ -304,6 +304,30 @@ impl Leg {
     }
 }
 
+/// The stride's phase in [0, 1) at frame `f`: its share of the way from
+/// the last left touch-down in `strikes` to the next, so the arms keep
+/// time with the legs whatever the rounding of each step to whole frames
+/// (a phase counted at the nominal `stride_frames` drifts a little every
+/// stride); before the first and after the last touch-down, the nearest
+/// stride's length carries on.
+fn stride_phase(f: usize, strikes: &[usize], stride_frames: f64) -> f64 {
+    let f = f as f64;
+    let len = |a: usize, b: usize| (b - a) as f64;
+    let (from, period) = match strikes.iter().position(|&s| s as f64 > f) {
+        // Between two touch-downs.
+        Some(k) if k > 0 => (strikes[k - 1] as f64, len(strikes[k - 1], strikes[k])),
+        // Before the first.
+        Some(_) => (strikes[0] as f64, if strikes.len() > 1 { len(strikes[0], strikes[1]) } else { stride_frames }),
+        // After the last (or none).
+        None => match strikes {
+            [.., a, b] => (*b as f64, len(*a, *b)),
+            [a] => (*a as f64, stride_frames),
+            [] => (0.0, stride_frames),
+        },
+    };
+    ((f - from) / period).rem_euclid(1.0)
+}
+
 /// Where each foot is and which carries the body, from the step timing.
 struct Footsteps {
     /// Per frame: left ankle, right ankle (world), support.
@@ -574,7 +598,6 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
 
     // Stride phase for the arms: from each left touch-down, over one stride.
     let stride_frames = p.stride_period_s / dt;
-    let first_strike = steps.left_strikes.first().copied().unwrap_or(0) as f64;
     let stand_frames = ((p.stand_s / dt).round() as usize).min(n / 2);
     let mut q_all = vec![0.0; n * names.len()];
     let mut trunk = Vec::with_capacity(n);
@@ -591,7 +614,7 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
     for f in 0..n {
         // Arms: the human's swing, in phase with the stride, beside the home pose.
         // They fade in over the first stride of walking and out over the last.
-        let phase = ((f as f64 - first_strike) / stride_frames).rem_euclid(1.0);
+        let phase = stride_phase(f, &steps.left_strikes, stride_frames);
         let (walk_from, walk_to) = (stand_frames as f64, (n - stand_frames) as f64);
         let fade = ((f as f64 - walk_from) / stride_frames).clamp(0.0, 1.0)
             * ((walk_to - f as f64) / stride_frames).clamp(0.0, 1.0);
@@ -668,6 +691,61 @@ mod tests {
         assert!((com[999] - 0.05).abs() < 1e-3, "{}", com[999]);
         let worst = zmp.iter().zip(&zref).skip(450).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(worst < 2e-3, "ZMP error {worst}");
+    }
+
+    #[test]
+    fn the_stride_phase_restarts_at_every_left_touch_down() {
+        let strikes = [100, 325, 551, 776];
+        for &s in &strikes {
+            assert_eq!(stride_phase(s, &strikes, 225.0), 0.0);
+        }
+        assert!((stride_phase(438, &strikes, 225.0) - 0.5).abs() < 1e-12);
+        // Outside the touch-downs the nearest stride's length carries on.
+        assert!((stride_phase(0, &strikes, 225.0) - (1.0 - 100.0 / 225.0)).abs() < 1e-12);
+        assert_eq!(stride_phase(776 + 225, &strikes, 225.0), 0.0);
+        assert_eq!(stride_phase(10, &[], 20.0), 0.5);
+    }
+
+    #[test]
+    fn the_arms_keep_time_with_the_legs_over_a_long_walk() {
+        // A stride whose steps round to whole frames (1.123 s at 200 Hz):
+        // counted at the nominal period, the arms would drift a little every stride.
+        let robot = Robot::hoap2().unwrap();
+        let mass = MassModel::from_urdf(&robot, crate::assets::HOAP2_URDF, std::path::Path::new("hoap2.urdf")).unwrap();
+        let swing: Vec<f64> = (0..=50).map(|i| 0.2 * (std::f64::consts::TAU * i as f64 / 50.0).sin()).collect();
+        let p = WalkParams {
+            stride_period_s: 1.123,
+            double_support_share: 0.2,
+            step_length_m: 0.03,
+            foot_y_m: 0.039,
+            lift_m: 0.02,
+            lift_profile: vec![0.0, 1.0, 0.0],
+            advance_profile: vec![0.0, 0.5, 1.0],
+            trunk_height_m: 0.24,
+            steps: 40,
+            stand_s: 0.5,
+            rate_hz: 200.0,
+            preview_s: 1.0,
+            arm_swing: vec![("larm_joint_1".into(), swing)],
+        };
+        let plan = plan(&robot, &mass, &p).unwrap();
+        let steps = footsteps(&p);
+        let d = plan.joints.len();
+        let k = plan.joints.iter().position(|j| j == "larm_joint_1").unwrap();
+        let home = home_pose_rad(&robot)[k];
+        // Every left touch-down after the arms have faded in, up to the last stride: the swing's start.
+        let strikes = &steps.left_strikes[1..steps.left_strikes.len() - 1];
+        assert!(strikes.len() > 15);
+        for &f in strikes {
+            let q = plan.q_rad[f * d + k];
+            assert!((q - home).abs() < 1e-9, "frame {f}: {:.4} rad off the swing's start", q - home);
+        }
+        // A quarter of each stride on: the swing's crest.
+        for w in strikes.windows(2) {
+            let f = w[0] + (w[1] - w[0]) / 4;
+            let q = plan.q_rad[f * d + k] - home;
+            assert!((q - 0.2).abs() < 0.01, "frame {f}: {q:.4} rad, the crest is 0.2");
+        }
     }
 
     #[test]

@@ -149,6 +149,12 @@ pub struct SegmentSection {
     /// period; 1.2: strides 1.2 times as fast, steps as long).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tempo: Option<f64>,
+    /// A standing posture, not a rhythm: the segment is learnt as one
+    /// posture the generator holds still (a fixed point). With
+    /// `[data.retarget]`, the robot's standing pose the walk starts from (no
+    /// tempo); otherwise the mean frame of the motion (or of `frames`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub stand: bool,
 }
 
 /// `[data.tempo]`: the loop played at a rate `u(t)` that drifts smoothly
@@ -900,6 +906,9 @@ impl DataSection {
                     return bad(format!("data.segments[{k}].tempo"), "is used only with [data.retarget]");
                 }
             }
+            if self.tempo.is_some() && self.segments.iter().any(|s| s.stand) {
+                return bad("data.tempo".into(), "plays a rhythm; a standing segment (stand = true) has none");
+            }
             return Ok(());
         };
         if r.trials.is_empty() || r.trials.len() > MAX_SEGMENTS {
@@ -925,6 +934,13 @@ impl DataSection {
                 );
             }
             match s.tempo {
+                Some(_) if s.stand => {
+                    return bad(
+                        format!("data.segments[{k}].tempo"),
+                        "is given, but a standing segment (stand = true) has no tempo",
+                    );
+                }
+                None if s.stand => {}
                 Some(t) if t.is_finite() && (MIN_TEMPO..=MAX_TEMPO).contains(&t) => {}
                 Some(t) => {
                     return bad(
@@ -1112,6 +1128,17 @@ impl DataSection {
         count_within("data.loop_cycles", d.loop_cycles, 0, 100)?;
         count_within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
         count_within("data.segments", d.segments.len(), 1, MAX_SEGMENTS)?;
+        if let Some(k) = d.segments.iter().position(|s| s.stand) {
+            if d.loop_cycles == 0 {
+                return fail(
+                    &format!("data.segments[{k}].stand"),
+                    "needs looped segments (loop_cycles >= 1): a posture is held, not played as recorded",
+                );
+            }
+            if d.segments.iter().all(|s| s.stand) {
+                return fail("data.segments", "are all standing (stand = true); give at least one rhythm");
+            }
+        }
         if d.loop_cycles > 0 && d.tempo.is_none() {
             // The training sequence's length is known from the file alone: bounded before any motion is read.
             let blocks = d.segments.len().saturating_mul(d.repeats);

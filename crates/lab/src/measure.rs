@@ -21,6 +21,14 @@
 //!   threshold ([`RECOVERY_THRESHOLD_SD`]), at least a whole period of them;
 //!   0 s means at once. A run that comes back and leaves again has not
 //!   recovered.
+//! - **A posture** (a teacher of one frame: standing) has no rhythm. A run
+//!   holds it when, over the last window, every channel stays within
+//!   [`POSTURE_TOLERANCE`] of it in the channel's own units (degrees for
+//!   joint angles): *accurate*; and it is *still* (a fixed point, not a slow
+//!   cycle) when every channel's half range over that window is below a
+//!   tenth of it: *converged*. Back on a posture after a push: the same
+//!   windows as a rhythm's, a quarter of a second long, distances in the
+//!   normalised units (a posture has no spread), held for a second.
 
 use cpg_mocap::cycle::{estimate_period, half_range, lag, orbit_distance};
 use cpg_reservoir::batch::{Controls, Run};
@@ -41,6 +49,12 @@ pub const DECAYED_FRACTION: f64 = 0.05;
 pub const RECOVERY_THRESHOLD_SD: f64 = 0.25;
 /// Length of the windows judged at the start and at the end of a run, seconds.
 pub const WINDOW_S: f64 = 10.0;
+/// Largest distance from a taught posture that still holds it, in each
+/// channel's own units (degrees for joint angles).
+pub const POSTURE_TOLERANCE: f64 = 1.0;
+/// A posture's "period" for the windows of [`recovery`], seconds: windows of a
+/// quarter of it, held for the whole of it.
+pub const POSTURE_HOLD_S: f64 = 1.0;
 
 /// Channel `c` of a frame-major signal with `d` channels.
 pub fn column(x: &[f64], d: usize, c: usize) -> Vec<f64> {
@@ -121,6 +135,18 @@ pub struct Stability {
     pub converged: bool,
     /// Period and amplitudes at the end within the tolerances of the teacher's.
     pub accurate: bool,
+    /// For a posture: how far and how much the last window moved.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub posture: Option<PostureHold>,
+}
+
+/// A run against a posture, over its last window, in each channel's units.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PostureHold {
+    /// Largest distance from the posture, per channel.
+    pub deviation: Vec<f64>,
+    /// Half range, per channel (a slow cycle shows here).
+    pub swing: Vec<f64>,
 }
 
 impl Stability {
@@ -162,7 +188,39 @@ pub fn stability(y: &[f64], d: usize, teacher: &Teacher, reference: usize, rate_
     let converged = !early.decayed
         && within(end.period_steps, &end.amplitude, early.period_steps.unwrap_or(f64::NAN), &early.amplitude);
     let accurate = within(end.period_steps, &end.amplitude, shape.period_steps, &shape.amplitude);
-    Stability { steps, teacher: shape, early, end, decayed_at_s, converged, accurate }
+    Stability { steps, teacher: shape, early, end, decayed_at_s, converged, accurate, posture: None }
+}
+
+/// Judges a run `y` (`steps × d`, normalised) against a posture `teacher`
+/// (one frame); `std` is each channel's normalisation, so the verdicts are in
+/// its units. The windows are [`stability`]'s.
+pub fn posture_stability(y: &[f64], d: usize, teacher: &Teacher, rate_hz: f64, std: &[f64]) -> Stability {
+    let steps = y.len() / d;
+    let win = ((WINDOW_S * rate_hz) as usize).clamp(1, steps.max(1)).min(steps);
+    let minute = ((60.0 * rate_hz) as usize).clamp(win, steps);
+    let still = |w: &[f64]| Rhythm {
+        period_steps: None,
+        amplitude: (0..d).map(|c| half_range(&column(w, d, c))).collect(),
+        aligned_nmse: orbit_nmse(w, &OrbitStay { end: 0, window: 0, cycle: teacher.cycle.clone(), rate: 1.0 }, d),
+        decayed: false,
+    };
+    let (early, end) = (still(&y[(minute - win) * d..minute * d]), still(&y[(steps - win) * d..]));
+    let last = &y[(steps - win) * d..];
+    let deviation: Vec<f64> = (0..d)
+        .map(|c| column(last, d, c).iter().map(|v| (v - teacher.cycle[c]).abs() * std[c]).fold(0.0, f64::max))
+        .collect();
+    let swing: Vec<f64> = (0..d).map(|c| end.amplitude[c] * std[c]).collect();
+    let finite = last.iter().all(|v| v.is_finite());
+    Stability {
+        steps,
+        teacher: TeacherShape::of(teacher, d),
+        early,
+        converged: finite && swing.iter().all(|&a| a < 0.1 * POSTURE_TOLERANCE),
+        accurate: finite && deviation.iter().all(|&e| e <= POSTURE_TOLERANCE),
+        end,
+        decayed_at_s: None,
+        posture: Some(PostureHold { deviation, swing }),
+    }
 }
 
 /// What a perturbed run did, against its unperturbed twin.
@@ -194,12 +252,7 @@ fn settle(dist: &[f64], release: usize, threshold: f64, hold: usize, rate_hz: f6
 /// frame-major) after the step `release`, against the teacher `cycle`
 /// (`p × d`, the same units). At least 4 periods must follow the release.
 pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, rate_hz: f64) -> Result<Recovery> {
-    if d == 0
-        || a.len() != b.len()
-        || !a.len().is_multiple_of(d)
-        || cycle.len() < 2 * d
-        || !cycle.len().is_multiple_of(d)
-    {
+    if d == 0 || a.len() != b.len() || !a.len().is_multiple_of(d) || cycle.len() < d || !cycle.len().is_multiple_of(d) {
         return Err(Error::Shape(format!(
             "runs of {} and {} values and a cycle of {} values are not frames of {d} outputs",
             a.len(),
@@ -207,7 +260,9 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
             cycle.len()
         )));
     }
-    let p = cycle.len() / d;
+    // A posture's windows span POSTURE_HOLD_S as a rhythm's span its period.
+    let posture = cycle.len() == d;
+    let p = if posture { ((POSTURE_HOLD_S * rate_hz).round() as usize).max(4) } else { cycle.len() / d };
     let t = a.len() / d;
     if t < release + 4 * p {
         return Err(Error::Shape(format!(
@@ -218,7 +273,9 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
     let w = (p / 4).max(2);
     let ending = orbit_distance(b, cycle, d, w);
     let orbit: Vec<f64> = (0..t).map(|k| ending.get(k + w - 1).copied().unwrap_or(f64::INFINITY)).collect();
-    let sd = {
+    let sd = if posture {
+        1.0
+    } else {
         let m = cycle.iter().sum::<f64>() / cycle.len() as f64;
         (cycle.iter().map(|v| (v - m).powi(2)).sum::<f64>() / cycle.len() as f64).sqrt().max(f64::MIN_POSITIVE)
     };
@@ -231,7 +288,11 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
         .map(|k| if k + w <= t { (sq[k..k + w].iter().sum::<f64>() / w as f64).sqrt() / sd } else { f64::INFINITY })
         .collect();
     let tail = release + (t - release - 2 * p).min((t - release) / 2);
-    let shift = lag(&column(&a[tail * d..], d, 0), &column(&b[tail * d..], d, 0), p / 2 + 1) / p as f64;
+    let shift = if posture {
+        0.0
+    } else {
+        lag(&column(&a[tail * d..], d, 0), &column(&b[tail * d..], d, 0), p / 2 + 1) / p as f64
+    };
     Ok(Recovery {
         orbit_s: settle(&orbit, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
         twin_s: settle(&twin, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
@@ -411,7 +472,8 @@ pub fn judge(
     };
     let mut out = Vec::with_capacity(settings.len());
     for (s, t) in settings {
-        let p = t.cycle.len() / d;
+        let posture = t.is_posture(d);
+        let p = if posture { (POSTURE_HOLD_S * rate).round() as usize } else { t.cycle.len() / d };
         let push = push_for(&PushSection::default(), t, d, rate);
         let release = push.at + push.len;
         if steps < release + 4 * p {
@@ -432,10 +494,11 @@ pub fn judge(
         .into_iter();
         let (y, pushed) = (ys.next().unwrap_or_default(), ys.next().unwrap_or_default());
         let rec = recovery(&y[..(release + after) * d], &pushed, d, &t.cycle, release, rate)?;
+        let std: Vec<f64> = model.outputs.iter().map(|o| o.std).collect();
         out.push(Judged {
             teacher: t.label.clone(),
             controls: t.controls.clone(),
-            stability: stability(&y, d, t, 0, rate),
+            stability: if posture { posture_stability(&y, d, t, rate, &std) } else { stability(&y, d, t, 0, rate) },
             recovery: rec,
         });
     }
@@ -471,5 +534,25 @@ mod tests {
         let mut z = y.clone();
         z[500..].iter_mut().for_each(|v| *v *= 1e-3);
         assert_eq!(stability(&z, 1, &teacher, 0, 10.0).decayed_at_s, Some(50.0));
+    }
+
+    #[test]
+    fn a_posture_is_held_within_a_degree_and_still() {
+        // Two channels of 2° and 10° per normalised unit; the posture (0.5, -1).
+        let teacher = Teacher { label: "stand".into(), controls: Vec::new(), cycle: vec![0.5, -1.0], rate: 1.0 };
+        let std = [2.0, 10.0];
+        let run = |f: &dyn Fn(usize) -> [f64; 2]| -> Vec<f64> { (0..2000).flat_map(f).collect() };
+        let held = posture_stability(&run(&|_| [0.5, -1.0 + 0.09]), 2, &teacher, 10.0, &std);
+        assert!(held.accurate && held.converged, "0.9° off and still holds: {:?}", held.posture);
+        let off = posture_stability(&run(&|_| [0.5 + 0.6, -1.0]), 2, &teacher, 10.0, &std);
+        assert!(!off.accurate && off.converged, "1.2° off is not the posture, though still");
+        let sway = |k: usize| [0.5 + 0.06 * (k as f64 * 0.05).sin(), -1.0];
+        let slow = posture_stability(&run(&sway), 2, &teacher, 10.0, &std);
+        assert!(slow.accurate && !slow.converged, "a slow cycle of ±0.12° is near, but not still");
+        // Pushed off and back: recovered once within a quarter σ for a second.
+        let a = run(&|_| [0.5, -1.0]);
+        let b = run(&|k| if k < 100 { [3.0, -1.0] } else { [0.5, -1.0] });
+        let r = recovery(&a, &b, 2, &teacher.cycle, 50, 10.0).unwrap();
+        assert!(r.orbit_s.is_some_and(|s| (4.0..=5.1).contains(&s)), "{r:?}");
     }
 }

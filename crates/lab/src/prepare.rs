@@ -19,7 +19,7 @@ pub struct SegmentCycle {
     pub label: String,
     /// Frames in the segment.
     pub frames: usize,
-    /// Period estimated by autocorrelation, frames.
+    /// Period estimated by autocorrelation, frames (0: a standing posture).
     pub period_frames: f64,
     /// The channel whose rhythm gave the period.
     pub period_channel: String,
@@ -299,6 +299,17 @@ fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded
         };
         let (_, plan, _) = retarget(&human, &robot, &mass, &o)?;
         let (a, b) = plan.steady_stride;
+        let d = plan.joints.len();
+        let channels: Vec<Channel> =
+            plan.joints.iter().map(|j| Channel { bone: j.clone(), dof: cpg_mocap::Dof::Rx }).collect();
+        if s.stand {
+            // The pose the walk starts from, held for as long as the strides last.
+            let frames = (b - a).max(1) * r.strides;
+            let pose = &plan.q_rad[..d];
+            let values: Vec<f64> = std::iter::repeat_n(pose, frames).flatten().map(|v| v.to_degrees()).collect();
+            parts.push(Motion::new(channels, values, c.data.rate_hz)?);
+            continue;
+        }
         if b <= a + 1 {
             return Err(c.error(
                 &format!("data.segments[{k}]"),
@@ -308,10 +319,8 @@ fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded
                 ),
             ));
         }
-        let d = plan.joints.len();
         let stride = &plan.q_rad[a * d..b * d];
         let values: Vec<f64> = std::iter::repeat_n(stride, r.strides).flatten().map(|v| v.to_degrees()).collect();
-        let channels = plan.joints.iter().map(|j| Channel { bone: j.clone(), dof: cpg_mocap::Dof::Rx }).collect();
         parts.push(Motion::new(channels, values, c.data.rate_hz)?);
     }
     Ok(Recorded { skeleton: None, parts })
@@ -360,6 +369,7 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
         .map(|s| {
             s.label.clone().unwrap_or_else(|| match s.tempo {
                 Some(t) => format!("walk ×{t}"),
+                None if s.stand && s.motion.as_os_str().is_empty() => "stand".into(),
                 None => file_name(&s.motion),
             })
         })
@@ -392,6 +402,22 @@ fn loops(
         let label = &r.labels[k];
         let x = r.z.apply(m)?.values().to_vec();
         let t = m.n_frames();
+        if d_sec.segments[k].stand {
+            // A posture: one frame, the mean of the segment's.
+            let pose: Vec<f64> = (0..d).map(|c| column(&x, d, c).iter().sum::<f64>() / t.max(1) as f64).collect();
+            loops.push(pose);
+            cycles.push(SegmentCycle {
+                label: label.clone(),
+                frames: t,
+                period_frames: 0.0,
+                period_channel: String::new(),
+                loop_start: 0,
+                loop_len: 1,
+                seam_excess: 0.0,
+                stride: None,
+            });
+            continue;
+        }
         let (p, ch, _) = gait_period(&x, d, lo, hi, period_channel).ok_or_else(|| {
             Error::Unusable(format!(
                 "segment {} ({label}): no rhythm found between {} and {} s in its {t} frames (is the motion periodic?)",
@@ -504,6 +530,7 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
         )));
     }
     let frames = |i: usize| (loops[i].len() / d) as f64;
+    let is_posture = |i: usize| loops[i].len() == d;
     let mut outs = Vec::with_capacity(total * d);
     let mut ctls = Vec::with_capacity(total * u);
     let mut first_block = None;
@@ -538,7 +565,14 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
                 for (a, b) in seg.controls.iter().zip(&d_sec.segments[j].controls) {
                     ctls.push((1.0 - w) * a + w * b);
                 }
-                ph += 1.0 / ((1.0 - w) * frames(i) + w * frames(j));
+                // Into or out of a posture the rhythm keeps its own pace
+                // while it grows or fades; between rhythms the period blends.
+                ph += 1.0
+                    / match (is_posture(i), is_posture(j)) {
+                        (true, false) => frames(j),
+                        (false, true) => frames(i),
+                        _ => (1.0 - w) * frames(i) + w * frames(j),
+                    };
             }
             last = (j, ph);
         }
@@ -653,6 +687,9 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
     let found: Vec<String> = cycles
         .iter()
         .map(|cy| {
+            if cy.period_frames == 0.0 {
+                return format!("segment {}: a posture held (the mean of its {} frames)", cy.label, cy.frames);
+            }
             format!(
                 "segment {}: period {:.1} frames (from {}), loop frames {}..{}, seam excess {:.3}",
                 cy.label,

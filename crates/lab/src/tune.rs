@@ -238,6 +238,12 @@ fn judge(models: &[Option<TrainedCpg>], seed: u64, rate: f64, s: &TuneSettings) 
             return Err(Error::Unusable("cpg tune needs a looped (periodic) segment to judge the rhythm".into()));
         }
         let d = m.outputs.len();
+        if let Some(t) = m.teachers.iter().find(|t| t.is_posture(d)) {
+            return Err(Error::Unusable(format!(
+                "cpg tune judges rhythms; '{}' is a posture (stand = true): tune a configuration without it",
+                t.label
+            )));
+        }
         for (k, t) in m.teachers.iter().enumerate() {
             let push = push_for(&PushSection::default(), t, d, rate);
             let release = push.at + push.len;

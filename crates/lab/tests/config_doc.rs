@@ -130,6 +130,12 @@ fn errors_name_the_key_its_line_and_what_it_takes() {
     assert!(e.contains("`data.segments[0].tempo`") && e.contains("0.5 to 2"), "{e}");
     let e = err(&rt.replace("tempo = 3", "motion = \"m.amc\""));
     assert!(e.contains("`data.segments[0].motion`") && e.contains("give its tempo instead"), "{e}");
+    let e = err(&rt.replace("tempo = 3", "tempo = 1\nstand = true"));
+    assert!(e.contains("`data.segments[0].tempo`") && e.contains("standing segment"), "{e}");
+    let e = err(&rt.replace("tempo = 3", "stand = true"));
+    assert!(e.contains("`data.segments`") && e.contains("at least one rhythm"), "{e}");
+    let e = err(&base.replace("motion = \"m.amc\"", "motion = \"m.amc\"\nstand = true"));
+    assert!(e.contains("`data.segments`") && e.contains("at least one rhythm"), "{e}");
     let e = err(&base.replace("motion = \"m.amc\"", "motion = \"m.amc\"\ntempo = 1"));
     assert!(e.contains("`data.segments[0].tempo`") && e.contains("only with [data.retarget]"), "{e}");
     let e = err(&base.replace("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"a,b\"]"));

@@ -197,8 +197,9 @@ fn shift_errors(model: &[f64], cycle: &[f64], n_channels: usize) -> Vec<f64> {
 /// Distance of a signal to a periodic orbit, over time: for each `t ≥ window − 1`,
 /// the RMS difference between the last `window` frames of `y` and the best-
 /// matching stretch of the repeated `cycle`, divided by the cycle's standard
-/// deviation (pooled over channels). 0 means "on the orbit"; entries before the
-/// first full window are `NaN`.
+/// deviation (pooled over channels; a cycle that does not move, such as a
+/// one-frame posture, has none: the distance is then in the signal's own
+/// units). 0 means "on the orbit"; entries before the first full window are `NaN`.
 pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize) -> Vec<f64> {
     let t = y.len() / n_channels;
     let p = cycle.len() / n_channels;
@@ -208,7 +209,7 @@ pub fn orbit_distance(y: &[f64], cycle: &[f64], n_channels: usize, window: usize
     }
     let m = mean(cycle);
     let var = cycle.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / cycle.len() as f64;
-    let norm = var.max(f64::MIN_POSITIVE);
+    let norm = if var < 1e-12 { 1.0 } else { var };
     for (end, slot) in out.iter_mut().enumerate().skip(window - 1) {
         let start = end + 1 - window;
         let mut best = f64::INFINITY;

@@ -80,18 +80,26 @@ def test_cpg_sim_says_what_is_wrong(walk, tmp_path):
         assert k in out
 
 
-def test_the_walk_cpg_of_the_experiment_takes_a_tempo_change_by_its_input(walk):
-    """experiments/hoap2-walk.toml's CPG (the robot's walk at three tempos, a
-    tempo input) drives the robot from the 10th left touch-down and changes
-    tempo by its input, as the report's walking section runs it."""
+def test_the_walk_cpg_of_the_experiment_takes_a_tempo_change_and_stops_by_its_inputs(walk):
+    """experiments/hoap2-walk.toml's CPG (the robot's walk at three tempos and
+    its standing pose, a tempo and a walk input) drives the robot from the
+    10th left touch-down, changes tempo by its input, and stops and stands
+    when told, as the report's walking section runs it."""
     import cpg
 
     model = cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=1)
-    assert model.controls == ["u_tempo"], model.controls
+    assert model.controls == ["u_tempo", "u_walk"], model.controls
     w = read_trajectory(str(walk))
     gains = Gains.from_json(GAINS.read_text())
     r = simulate(*w, seconds=22.0, gains=gains, cpg_model=model, tempo=1.1, tempo_at_s=16.0)
     assert not r["fell"] and r["upright_s"] == pytest.approx(22.0), r
     assert r["forward_m"] > 0.8, r
+    # Told to stop at 14 s (u_walk to 0 over 2 s), it stands: from 19 s to the
+    # end the trunk moves less than a tenth of what walking covers (~0.06 m/s).
+    r = simulate(*w, seconds=26.0, gains=gains, cpg_model=model, stop_at_s=14.0)
+    assert not r["fell"] and r["stop_at_s"] == 14.0, r
+    assert r["moved_after_stop_m"] < 0.1 * 0.06 * (26.0 - 19.0), r
+    with pytest.raises(ValueError, match="u_walk"):
+        simulate(*w, seconds=1.0, cpg_model=fit_walk(*w, seed=1, neurons=50, stride_index=4), stop_at_s=0.5)
     # The seed replaces the configuration's: another seed, another reservoir.
     assert cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=2).to_bytes() != model.to_bytes()

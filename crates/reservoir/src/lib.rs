@@ -49,7 +49,7 @@ pub use model::{
     FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,
     TrainedCpg, check_name, to_units, to_units_in_place,
 };
-pub use orbit::{OrbitStay, orbit_nmse};
+pub use orbit::{OrbitStay, STILL_VARIANCE, orbit_nmse};
 pub use real::Real;
 pub use reservoir::{Reservoir, spectral_radius};
 pub use train::{

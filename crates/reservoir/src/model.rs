@@ -161,7 +161,8 @@ pub struct Teacher {
     pub label: String,
     /// The control values of this rhythm (empty without control inputs).
     pub controls: Vec<f64>,
-    /// One period, frame-major `p × D`, in normalised units.
+    /// One period, frame-major `p × D`, in normalised units; a single frame
+    /// is a posture to hold still (standing), not a rhythm.
     pub cycle: Vec<f64>,
     /// Teacher frames per generated step: 1 for the motion as recorded, `u`
     /// for the cycle played `u` times as fast.
@@ -177,6 +178,11 @@ impl Teacher {
     /// The period in generated steps (`period_frames / rate`).
     pub fn period_steps(&self, n_outputs: usize) -> f64 {
         self.period_frames(n_outputs) as f64 / self.rate
+    }
+
+    /// A posture held still (a one-frame cycle), not a rhythm.
+    pub fn is_posture(&self, n_outputs: usize) -> bool {
+        self.period_frames(n_outputs) == 1
     }
 }
 
@@ -329,7 +335,7 @@ impl TrainedCpg {
             )));
         }
         for t in &self.teachers {
-            let ok = t.cycle.len() >= 2 * d
+            let ok = t.cycle.len() >= d
                 && t.cycle.len().is_multiple_of(d)
                 && t.cycle.iter().all(|v| v.is_finite())
                 && t.controls.len() == u
@@ -338,7 +344,7 @@ impl TrainedCpg {
                 && t.rate > 0.0;
             if !ok {
                 return Err(Error::Shape(format!(
-                    "teacher '{}': expected a cycle of at least 2 whole finite frames of {d} values, {u} finite control values and a rate > 0",
+                    "teacher '{}': expected a cycle (or a one-frame posture) of whole finite frames of {d} values, {u} finite control values and a rate > 0",
                     t.label
                 )));
             }

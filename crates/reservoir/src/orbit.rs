@@ -17,6 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
+/// Below this variance (normalised units²) a teacher's channel does not move.
+pub const STILL_VARIANCE: f64 = 1e-12;
+
 /// A stretch of a validation run that should be on one teacher's orbit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OrbitStay {
@@ -39,9 +42,9 @@ impl OrbitStay {
 
     pub(crate) fn check(&self, d: usize, steps: usize) -> Result<()> {
         let p = self.period(d);
-        if d == 0 || p < 2 || self.cycle.len() != p * d || self.cycle.iter().any(|v| !v.is_finite()) {
+        if d == 0 || p < 1 || self.cycle.len() != p * d || self.cycle.iter().any(|v| !v.is_finite()) {
             return Err(Error::Settings(format!(
-                "an orbit stay needs a cycle of at least 2 whole frames of {d} values"
+                "an orbit stay needs a cycle (or a posture) of whole frames of {d} values"
             )));
         }
         if !(self.rate.is_finite() && self.rate > 0.0) {
@@ -72,19 +75,21 @@ fn at(cycle: &[f64], p: usize, d: usize, pos: f64, c: usize) -> f64 {
 /// NMSE of `window` (`stay.window × d`, frame-major) against the teacher
 /// cycle played at `stay.rate`, minimised over the start phase (searched on
 /// a grid of half a teacher frame). Each channel's error is divided by its
-/// variance over the cycle; the result is the mean over channels.
-/// Non-finite windows score `+∞`.
+/// variance over the cycle; the result is the mean over channels. A channel
+/// that does not move in the cycle (every channel of a one-frame posture)
+/// has no variance to divide by: its error counts in the signal's own
+/// (normalised) units. Non-finite windows score `+∞`.
 pub fn orbit_nmse(window: &[f64], stay: &OrbitStay, d: usize) -> f64 {
     let p = stay.period(d);
     let t = window.len() / d.max(1);
-    if p < 2 || t == 0 || window.iter().any(|v| !v.is_finite()) {
+    if p < 1 || t == 0 || window.iter().any(|v| !v.is_finite()) {
         return f64::INFINITY;
     }
     let inv_var: Vec<f64> = (0..d)
         .map(|c| {
             let m = (0..p).map(|k| stay.cycle[k * d + c]).sum::<f64>() / p as f64;
             let v = (0..p).map(|k| (stay.cycle[k * d + c] - m).powi(2)).sum::<f64>() / p as f64;
-            1.0 / v.max(1e-12)
+            if v < STILL_VARIANCE { 1.0 } else { 1.0 / v }
         })
         .collect();
     let norm = (t * d) as f64;
@@ -126,6 +131,20 @@ mod tests {
         // A 3 % period error over three cycles does not fit any one phase.
         assert!(orbit_nmse(&sine(300, 103.0, 0.0, 1.0), &stay, 1) > 0.01);
         assert_eq!(orbit_nmse(&[f64::NAN; 300], &stay, 1), f64::INFINITY);
+    }
+
+    #[test]
+    fn a_posture_is_scored_in_the_signals_own_units() {
+        let stay = OrbitStay { end: 50, window: 50, cycle: vec![0.5, -1.0], rate: 1.0 };
+        assert!(stay.check(2, 50).is_ok(), "one frame is a posture");
+        let held: Vec<f64> = [0.5, -1.0].repeat(50);
+        assert_eq!(orbit_nmse(&held, &stay, 2), 0.0);
+        // 0.1 off on one of two channels: 0.01 / 2.
+        let off: Vec<f64> = [0.6, -1.0].repeat(50);
+        assert!((orbit_nmse(&off, &stay, 2) - 0.005).abs() < 1e-12);
+        // A slow swing around the posture costs its mean square.
+        let swing: Vec<f64> = (0..50).flat_map(|k| [0.5 + 0.2 * (k as f64 * 0.3).sin(), -1.0]).collect();
+        assert!(orbit_nmse(&swing, &stay, 2) > 0.005);
     }
 
     #[test]

@@ -96,6 +96,7 @@ fn stability_seed(seed: u64, period: Option<f64>, amp: f64, penalty: f64) -> Sta
             decayed_at_s: period.is_none().then_some(412.5),
             converged: period.is_some(),
             accurate,
+            posture: None,
         },
         recovery: Recovery { orbit_s: period.map(|_| 0.5), twin_s: None, phase_shift_cycles: 0.031 },
     }

@@ -306,34 +306,12 @@ pub fn evaluate(
         } else {
             format!(" at controls [{}]", j.controls.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "))
         };
-        println!("teacher '{}'{ctl}: period {:.2} steps", j.teacher, st.teacher.period_steps);
-        match (st.end.period_steps, st.decayed_at_s) {
-            (_, Some(t)) => println!("  decayed at {t:.1} s: no rhythm at the end"),
-            (Some(pe), None) => println!(
-                "  period at the end: {pe:.2} steps ({:+.2} % of the teacher's)",
-                100.0 * (pe / st.teacher.period_steps - 1.0)
-            ),
-            (None, None) => println!("  no period found at the end"),
+        if let Some(hold) = &st.posture {
+            println!("teacher '{}'{ctl}: a posture", j.teacher);
+            print_posture(&m, hold, st);
+        } else {
+            print_rhythm(&m, &j.teacher, &ctl, st);
         }
-        for (k, o) in m.outputs.iter().enumerate() {
-            println!(
-                "  {}: half range at the end {:.3} (normalised units; teacher {:.3}, {:+.1} %)",
-                o.name,
-                st.end.amplitude[k],
-                st.teacher.amplitude[k],
-                100.0 * (st.amplitude_ratio(k) - 1.0)
-            );
-        }
-        println!("  phase-aligned NMSE of the last window: {:.4}", st.end.aligned_nmse);
-        println!(
-            "  converged (the rhythm no longer changes after the first minute): {}",
-            if st.converged { "yes" } else { "no" }
-        );
-        println!(
-            "  {}: {}",
-            cpg_lab::experiment::stability::RULE.replacen(": ", " (", 1) + ")",
-            if st.accurate { "yes" } else { "no" }
-        );
         let r = &j.recovery;
         let s = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("after {v:.2} s"));
         println!(
@@ -344,6 +322,62 @@ pub fn evaluate(
         );
     }
     Ok(())
+}
+
+/// What `cpg evaluate` prints of a posture held.
+fn print_posture(
+    m: &cpg_reservoir::TrainedCpg,
+    hold: &cpg_lab::measure::PostureHold,
+    st: &cpg_lab::measure::Stability,
+) {
+    for (k, o) in m.outputs.iter().enumerate() {
+        println!(
+            "  {}: at the end up to {:.3} from the posture, half range {:.3} (the channel's units)",
+            o.name, hold.deviation[k], hold.swing[k]
+        );
+    }
+    let tol = cpg_lab::measure::POSTURE_TOLERANCE;
+    println!(
+        "  still (every channel's half range at the end below {}): {}",
+        0.1 * tol,
+        if st.converged { "yes" } else { "no" }
+    );
+    println!(
+        "  held (every channel within {tol} of the posture at the end): {}",
+        if st.accurate { "yes" } else { "no" }
+    );
+}
+
+/// What `cpg evaluate` prints of a rhythm.
+fn print_rhythm(m: &cpg_reservoir::TrainedCpg, teacher: &str, ctl: &str, st: &cpg_lab::measure::Stability) {
+    println!("teacher '{teacher}'{ctl}: period {:.2} steps", st.teacher.period_steps);
+    match (st.end.period_steps, st.decayed_at_s) {
+        (_, Some(t)) => println!("  decayed at {t:.1} s: no rhythm at the end"),
+        (Some(pe), None) => println!(
+            "  period at the end: {pe:.2} steps ({:+.2} % of the teacher's)",
+            100.0 * (pe / st.teacher.period_steps - 1.0)
+        ),
+        (None, None) => println!("  no period found at the end"),
+    }
+    for (k, o) in m.outputs.iter().enumerate() {
+        println!(
+            "  {}: half range at the end {:.3} (normalised units; teacher {:.3}, {:+.1} %)",
+            o.name,
+            st.end.amplitude[k],
+            st.teacher.amplitude[k],
+            100.0 * (st.amplitude_ratio(k) - 1.0)
+        );
+    }
+    println!("  phase-aligned NMSE of the last window: {:.4}", st.end.aligned_nmse);
+    println!(
+        "  converged (the rhythm no longer changes after the first minute): {}",
+        if st.converged { "yes" } else { "no" }
+    );
+    println!(
+        "  {}: {}",
+        cpg_lab::experiment::stability::RULE.replacen(": ", " (", 1) + ")",
+        if st.accurate { "yes" } else { "no" }
+    );
 }
 
 /// A progress bar on standard error.

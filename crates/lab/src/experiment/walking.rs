@@ -43,6 +43,16 @@ pub struct SimRun {
     pub pushes_survived: usize,
     /// Pushes given.
     pub pushes_total: usize,
+    /// When a CPG took over from the planned start walk, s (`None`: no CPG).
+    #[serde(default)]
+    pub handover_s: Option<f64>,
+    /// When the CPG was told to stop (its `u_walk` to 0), s.
+    #[serde(default)]
+    pub stop_at_s: Option<f64>,
+    /// How far the trunk moved from 3 s after the stop's ramp to the end, m
+    /// (`None`: no stop, or it fell first).
+    #[serde(default)]
+    pub moved_after_stop_m: Option<f64>,
     /// The trunk's path at 50 Hz: `[t_s, x_m, y_m, z_m]` (recorded runs only).
     #[serde(default)]
     pub trunk_path: Vec<[f64; 4]>,
@@ -108,6 +118,9 @@ pub struct Conditions {
     pub pushes: SimRun,
     /// A tempo change half-way.
     pub tempo: SimRun,
+    /// Told to stop half-way and stand (a CPG with a `u_walk` input).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop: Option<SimRun>,
 }
 
 /// A CPG judged as every model is (`Model.evaluate`, `cpg evaluate`): a long
@@ -131,8 +144,11 @@ pub struct JudgedRun {
     pub steps: usize,
     /// Period and amplitudes at the end within the tolerances of the teacher's.
     pub accurate: bool,
-    /// The rhythm no longer changed after the first minute.
+    /// The rhythm no longer changed after the first minute (a posture: it is still).
     pub converged: bool,
+    /// Present when the teacher is a posture (standing): how far and how much it moved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub posture: Option<serde_json::Value>,
 }
 
 /// One reservoir seed's CPG, without and with feedback.
@@ -296,7 +312,7 @@ fn claim(c: &str, measured: Vec<Measure>, verdict: Verdict) -> Claim {
             text: "not in the papers: wyffels & Schrauwen (2009) leave walking on the robot as future work; the targets are issue 29's".into(),
         }],
         protocol: "extension".into(),
-        differs: vec!["the gait is retargeted to the robot (ZMP preview control) and the CPG has a tempo input".into()],
+        differs: vec!["the gait is retargeted to the robot (ZMP preview control) and the CPG has a tempo input and a walk/stand input".into()],
         measured,
         verdict,
     }
@@ -365,9 +381,96 @@ impl WalkingResult {
         add("the retargeted walk, open loop with feedback", &[&eval.open_loop_feedback]);
         add("the CPG, no feedback", &eval.seeds.iter().map(|s| &s.cpg).collect::<Vec<_>>());
         add("the CPG with feedback", &eval.seeds.iter().map(|s| &s.cpg_feedback).collect::<Vec<_>>());
-        let claims = claims(&eval);
+        for (walker, pick) in [
+            ("the CPG, no feedback", (|s: &SeedRuns| &s.cpg) as fn(&SeedRuns) -> &Conditions),
+            ("the CPG with feedback", |s: &SeedRuns| &s.cpg_feedback),
+        ] {
+            let stops: Vec<&SimRun> = eval.seeds.iter().filter_map(|s| pick(s).stop.as_ref()).collect();
+            if !stops.is_empty() {
+                rows.push(Row::of(walker, "stop", &stops));
+            }
+        }
+        let mut claims = claims(&eval);
+        claims.extend(stop_claim(&eval));
         WalkingResult { header, eval, rows, claims }
     }
+}
+
+/// Told to stop half-way, the CPG with feedback stands: upright to the end
+/// (`None` when no run stopped).
+fn stop_claim(e: &WalkEval) -> Option<Claim> {
+    let stops: Vec<&SimRun> = e.seeds.iter().filter_map(|s| s.cpg_feedback.stop.as_ref()).collect();
+    let at = stops.first()?.stop_at_s?;
+    let n = stops.len();
+    let need = (targets::UPRIGHT_SHARE * n as f64 - 1e-9).ceil() as usize;
+    let up = Proportion::count(stops.iter().map(|r| !r.fell));
+    let moved: Vec<f64> = stops.iter().filter(|r| !r.fell).filter_map(|r| r.moved_after_stop_m).collect();
+    let mut measured = vec![Measure::count(format!("seeds upright to the end after the stop at {at:.0} s"), up)];
+    if !moved.is_empty() {
+        measured.push(Measure::spread(
+            "the trunk's travel while standing (from 3 s after the stop to the end)",
+            &moved.iter().map(|m| 1000.0 * m).collect::<Vec<_>>(),
+            "mm",
+            0,
+        ));
+    }
+    Some(claim(
+        "it stops by its input and stands",
+        measured,
+        Verdict::new(
+            up.k >= need,
+            false,
+            format!(
+                "at least {need} of {n} seeds stay upright to the end when the walk input u_walk falls to 0 at {at:.0} s (a 2-s cosine ramp){}",
+                if up.k >= need { String::new() } else { format!("; missed by {} seed(s)", need - up.k) }
+            ),
+        ),
+    ))
+}
+
+/// The walk's CPG judged as every model is: long free runs and the paper's
+/// push at every setting it was taught.
+fn rhythm_claim(e: &WalkEval, need: usize) -> Claim {
+    let n = e.seeds.len();
+    let judged: Vec<&Judgement> = e.seeds.iter().flat_map(|s| &s.judged).collect();
+    let long = Proportion::count(
+        e.seeds.iter().map(|s| !s.judged.is_empty() && s.judged.iter().all(|j| j.stability.accurate)),
+    );
+    let back = Proportion::count(
+        e.seeds.iter().map(|s| !s.judged.is_empty() && s.judged.iter().all(|j| j.recovery.orbit_s.is_some())),
+    );
+    let back_s: Vec<f64> = judged.iter().filter_map(|j| j.recovery.orbit_s).collect();
+    let stands = judged.iter().any(|j| j.stability.posture.is_some());
+    claim(
+        if stands {
+            "the walk's CPG keeps its rhythm at every tempo it was taught and holds its standing pose, and recovers after a push"
+        } else {
+            "the walk's CPG keeps its rhythm at every tempo it was taught, and recovers after a push"
+        },
+        vec![
+            Measure::count(format!("seeds accurate after {:.0} s at every setting", e.judge_s), long),
+            Measure::count("seeds back on the orbit after the paper's push at every setting", back),
+            Measure::spread("time back on the orbit", &back_s, "s", 2),
+        ],
+        Verdict::new(
+            long.k >= need && back.k >= need,
+            false,
+            format!(
+                "at least {need} of {n} seeds are accurate (period within 1 %, amplitudes within 5 %{}) after {:.0} s of free run and back on the teacher's orbit after the paper's push, at every setting they were taught{}",
+                if stands {
+                    format!("; standing: every joint within {}° of the pose", crate::measure::POSTURE_TOLERANCE)
+                } else {
+                    String::new()
+                },
+                e.judge_s,
+                if long.k >= need && back.k >= need {
+                    String::new()
+                } else {
+                    format!("; missed by {} seed(s)", need.saturating_sub(long.k.min(back.k)))
+                }
+            ),
+        ),
+    )
 }
 
 /// The targets' verdicts, on the CPG with feedback.
@@ -387,36 +490,8 @@ fn claims(e: &WalkEval) -> Vec<Claim> {
     let tempo_up = Proportion::count(tempo.iter().map(|r| !r.fell));
     let forward: Vec<f64> = flat.iter().map(|r| r.forward_m).collect();
     let heading: Vec<f64> = flat.iter().map(|r| r.heading_deg.abs()).collect();
-    let judged: Vec<&Judgement> = e.seeds.iter().flat_map(|s| &s.judged).collect();
-    let long = Proportion::count(
-        e.seeds.iter().map(|s| !s.judged.is_empty() && s.judged.iter().all(|j| j.stability.accurate)),
-    );
-    let back = Proportion::count(
-        e.seeds.iter().map(|s| !s.judged.is_empty() && s.judged.iter().all(|j| j.recovery.orbit_s.is_some())),
-    );
-    let back_s: Vec<f64> = judged.iter().filter_map(|j| j.recovery.orbit_s).collect();
     vec![
-        claim(
-            "the walk's CPG keeps its rhythm at every tempo it was taught, and recovers after a push",
-            vec![
-                Measure::count(format!("seeds accurate after {:.0} s at every tempo", e.judge_s), long),
-                Measure::count("seeds back on the orbit after the paper's push at every tempo", back),
-                Measure::spread("time back on the orbit", &back_s, "s", 2),
-            ],
-            Verdict::new(
-                long.k >= need && back.k >= need,
-                false,
-                format!(
-                    "at least {need} of {n} seeds are accurate (period within 1 %, amplitudes within 5 %) after {:.0} s of free run and back on the teacher's orbit after the paper's push, at every tempo they were taught{}",
-                    e.judge_s,
-                    if long.k >= need && back.k >= need {
-                        String::new()
-                    } else {
-                        format!("; missed by {} seed(s)", need.saturating_sub(long.k.min(back.k)))
-                    }
-                ),
-            ),
-        ),
+        rhythm_claim(e, need),
         claim(
             "the CPG walks the robot: upright, forward, straight",
             vec![
@@ -502,6 +577,9 @@ mod tests {
             cost_of_transport: Some(1.0),
             pushes_survived: pushes.0,
             pushes_total: pushes.1,
+            handover_s: Some(11.0),
+            stop_at_s: None,
+            moved_after_stop_m: None,
             trunk_path: Vec::new(),
             contacts_n: Vec::new(),
             pose_joints: Vec::new(),
@@ -529,7 +607,7 @@ mod tests {
     }
 
     fn conditions(r: SimRun) -> Conditions {
-        Conditions { flat: r.clone(), pushes: r.clone(), tempo: r }
+        Conditions { flat: r.clone(), pushes: r.clone(), tempo: r, stop: None }
     }
 
     fn eval(seeds: Vec<SimRun>) -> WalkEval {
@@ -555,7 +633,7 @@ mod tests {
                     judged: vec![Judgement {
                         teacher: "walk ×1".into(),
                         controls: vec![1.0],
-                        stability: JudgedRun { steps: 1000, accurate: true, converged: true },
+                        stability: JudgedRun { steps: 1000, accurate: true, converged: true, posture: None },
                         recovery: crate::measure::Recovery {
                             orbit_s: Some(0.2),
                             twin_s: None,
@@ -586,6 +664,28 @@ mod tests {
         // 108 of 120 pushes: 90 %, still above 80 %.
         assert!(r.claims[2].verdict.passed());
         assert_eq!(r.rows.len(), 4 * 3);
+    }
+
+    #[test]
+    fn a_stop_is_judged_by_the_runs_that_stood() {
+        let mut e = eval((0..10).map(|_| run(false, 3.7, 2.0, (11, 12))).collect());
+        assert!(stop_claim(&e).is_none(), "no stop runs, no claim");
+        for (k, s) in e.seeds.iter_mut().enumerate() {
+            let fell = k < 2;
+            let stop = SimRun {
+                stop_at_s: Some(30.0),
+                moved_after_stop_m: (!fell).then_some(0.01),
+                ..run(fell, 2.0, 1.0, (0, 0))
+            };
+            s.cpg_feedback.stop = Some(stop);
+        }
+        let c = stop_claim(&e).unwrap();
+        assert!(!c.verdict.passed(), "8 of 10 stood; 9 are needed");
+        assert!(c.verdict.rule.contains("missed by 1 seed") && c.verdict.rule.contains("30 s"), "{}", c.verdict.rule);
+        e.seeds[0].cpg_feedback.stop.as_mut().unwrap().fell = false;
+        assert!(stop_claim(&e).unwrap().verdict.passed());
+        let r = WalkingResult::of(header(), e);
+        assert_eq!(r.rows.iter().filter(|r| r.condition == "stop").count(), 1, "a row for the CPG with feedback");
     }
 
     #[test]

@@ -120,6 +120,8 @@ def simulate(
     handover_s: Optional[float] = None,
     cpg_controls: Optional[dict] = None,
     tempo_ramp_s: float = 3.0,
+    stop_at_s: Optional[float] = None,
+    stop_ramp_s: float = 2.0,
 ):
     """Plays a walk in the HOAP-2 model; returns the run's measures (a dict).
 
@@ -132,7 +134,11 @@ def simulate(
     ``cpg_controls`` (by name; default: its first teacher's setting); when one
     of them is ``u_tempo``, a tempo change is that input times the tempo (the
     CPG's own tempo input), reached by a cosine ramp of ``tempo_ramp_s``;
-    otherwise the generator's clock runs faster."""
+    otherwise the generator's clock runs faster. With ``stop_at_s``, a model
+    with a ``u_walk`` input is told to stop there: ``u_walk`` falls to 0 by a
+    cosine ramp of ``stop_ramp_s`` (its training blends last 2 s), and the
+    run reports how far the trunk moved from 3 s after the ramp to the end
+    (``moved_after_stop_m``)."""
     import mujoco
 
     if push_direction != "all" and push_direction not in DIRECTIONS:
@@ -200,6 +206,8 @@ def simulate(
         if unknown:
             raise ValueError(f"controls {sorted(unknown)} are not the model's inputs {ctl_names}")
         base.update(cpg_controls or {})
+        if stop_at_s is not None and "u_walk" not in ctl_names:
+            raise ValueError(f"stop_at_s needs a model with a u_walk input; its inputs are {ctl_names}")
 
         def controls_at(t):
             u = dict(base)
@@ -208,6 +216,9 @@ def simulate(
                 s = 1.0 if tempo_ramp_s <= 0 else min(1.0, (t - tempo_at_s) / tempo_ramp_s)
                 w = 0.5 - 0.5 * math.cos(math.pi * s)
                 u["u_tempo"] = base["u_tempo"] * (1.0 + (tempo - 1.0) * w)
+            if stop_at_s is not None and t >= stop_at_s:
+                s = 1.0 if stop_ramp_s <= 0 else min(1.0, (t - stop_at_s) / stop_ramp_s)
+                u["u_walk"] = base["u_walk"] * (0.5 + 0.5 * math.cos(math.pi * s))
             return [float(u[n]) for n in ctl_names]
 
         gen, drive, gen_rate, gen_prev, gen_next, gen_due, handover_s = _generator_for(
@@ -238,6 +249,8 @@ def simulate(
     trunk_z = data.xpos[trunk][2:]  # views: MjData's arrays stay where they are
     trunk_up = data.xmat[trunk][8:]
     pushing = False
+    settled_at = None if stop_at_s is None else stop_at_s + stop_ramp_s + 3.0
+    settled_xy = None  # where the trunk was once the stop had settled
     for step in range(n):
         t = step * dt
         rate = tempo if t >= tempo_at_s else 1.0
@@ -312,6 +325,8 @@ def simulate(
         if pending is not None and t - pending >= min(2.0, push_every_s):
             pushes_survived += 1
             pending = None
+        if settled_xy is None and settled_at is not None and t >= settled_at:
+            settled_xy = data.xpos[trunk][:2].copy()
         if recording:
             path.append([t, *map(float, data.xpos[trunk])])
             contacts.append([t, float(touch[0]), float(touch[1])])
@@ -338,6 +353,12 @@ def simulate(
         "pushes_total": pushes_total,
         "gait_clock_s": clock,
     }
+    if gen is not None:
+        out["handover_s"] = float(handover_s)
+    if stop_at_s is not None:
+        out["stop_at_s"] = float(stop_at_s)
+        moved = None if settled_xy is None else float(np.hypot(*(data.xpos[trunk][:2] - settled_xy)))
+        out["moved_after_stop_m"] = moved
     if record_every:
         out["trunk_path"] = path
         out["contacts_n"] = contacts
@@ -423,6 +444,7 @@ def main(argv=None) -> int:
     p.add_argument("--push-direction", default="all", choices=[*DIRECTIONS, "all"], help="all: in turn")
     p.add_argument("--tempo", type=float, default=1.0, help="the gait's speed factor from --tempo-at-s on")
     p.add_argument("--tempo-at-s", type=float, default=0.0, help="when the tempo changes, s")
+    p.add_argument("--stop-at-s", type=float, help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
     p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE")
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
     p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here")
@@ -453,6 +475,7 @@ def main(argv=None) -> int:
             record_every=20 if a.output else 0,
             cpg_model=model,
             handover_s=a.handover_s,
+            stop_at_s=a.stop_at_s,
         )
     except Exception as e:  # cpg.CpgError, OSError, ValueError: one message, exit 2
         if isinstance(e, KeyboardInterrupt):
@@ -478,6 +501,8 @@ def main(argv=None) -> int:
             f"{state}; {r['forward_m']:+.2f} m forward, {r['lateral_m']:+.2f} m sideways, heading {r['heading_deg']:+.1f}°; "
             f"largest torque {r['max_torque_nm']:.2f} N·m; pushes survived {r['pushes_survived']} of {r['pushes_total']}"
         )
+        if r.get("moved_after_stop_m") is not None:
+            print(f"stopped at {r['stop_at_s']:.1f} s; the trunk moved {r['moved_after_stop_m'] * 1000:.0f} mm from 3 s after the stop to the end")
     return 0
 
 

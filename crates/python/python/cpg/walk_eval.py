@@ -1,7 +1,7 @@
 """Walking in physics, over reservoir seeds: the paper's joint-angle copy and
 the retargeted walk played open loop, and the CPG learnt from the retargeted
 walk without feedback and with the searched gains, each on flat ground, with
-pushes, and with a tempo change.
+pushes, with a tempo change, and (a CPG with a walk input) told to stop.
 
 ``python -m cpg.walk_eval --trajectory walk.csv --config experiments/hoap2-walk.toml --gains gains.json --seeds 10 -o walking.json``
 
@@ -31,12 +31,17 @@ RECORD_EVERY = 20
 
 
 def _conditions(walk, seconds, push_every_s, push_mps, tempo, tempo_ramp_s, **kw):
-    """The three runs of a row: flat, pushed, a tempo change half-way."""
-    return {
+    """The runs of a row: flat, pushed, a tempo change half-way, and (a CPG
+    with a walk input) told to stop half-way."""
+    out = {
         "flat": simulate(*walk, seconds=seconds, **kw),
         "pushes": simulate(*walk, seconds=seconds, push_every_s=push_every_s, push_mps=push_mps, **kw),
         "tempo": simulate(*walk, seconds=seconds, tempo=tempo, tempo_at_s=seconds / 2, tempo_ramp_s=tempo_ramp_s, **kw),
     }
+    model = kw.get("cpg_model")
+    if model is not None and "u_walk" in list(model.controls):
+        out["stop"] = simulate(*walk, seconds=seconds, stop_at_s=seconds / 2, **kw)
+    return out
 
 
 def _one(job):
@@ -135,8 +140,10 @@ def main(argv=None) -> int:
     os.chmod(tmp, 0o666 & ~_umask())
     os.replace(tmp, a.output)
     for row in ("cpg", "cpg+feedback"):
-        for c in ("flat", "pushes", "tempo"):
-            rs = [s[row][c] for s in out["seeds"]]
+        for c in ("flat", "pushes", "tempo", "stop"):
+            rs = [s[row][c] for s in out["seeds"] if c in s[row]]
+            if not rs:
+                continue
             up = sum(not r["fell"] for r in rs)
             fwd = sorted(r["forward_m"] for r in rs)
             pushes = sum(r["pushes_survived"] for r in rs), sum(r["pushes_total"] for r in rs)

@@ -22,13 +22,14 @@ fn gains(g: &serde_json::Value) -> String {
     }
 }
 
-/// `median (lo–hi)` of `v` with `digits` decimals, or `—`.
+/// `median (lo–hi)` of `v` with `digits` decimals (the value alone when all
+/// are equal), or `—`.
 fn spread(v: &[f64], digits: usize) -> String {
     if v.is_empty() {
         return "—".into();
     }
     let s = Spread::of(v);
-    if s.n == 1 {
+    if s.n == 1 || s.min == s.max {
         format!("{:.*}", digits, s.median)
     } else {
         format!("{:.*} ({:.*}–{:.*})", digits, s.median, digits, s.min, digits, s.max)
@@ -68,6 +69,12 @@ pub fn section(s: &mut Section, r: &WalkingResult, ctx: &Context) {
         e.tempo_ramp_s,
         gains(&e.gains)
     ));
+    if let Some(at) = e.seeds.iter().find_map(|x| x.cpg_feedback.stop.as_ref().and_then(|r| r.stop_at_s)) {
+        s.line(format!(
+            "A fourth run tells each CPG to stop at {at:.0} s: its walk input u_walk falls to 0 over 2 s (the length of the blends it was taught), and it should stand in its starting pose to the end."
+        ));
+    }
+    early_falls(s, r);
     s.blank();
     let rows: Vec<Vec<String>> = r.rows.iter().map(row_cells).collect();
     s.table(
@@ -100,6 +107,37 @@ pub fn section(s: &mut Section, r: &WalkingResult, ctx: &Context) {
     }
     s.blank();
     figures(s, r);
+}
+
+/// How many CPG runs fell before the CPG took over: they judge the planned start, not the CPG.
+fn early_falls(s: &mut Section, r: &WalkingResult) {
+    for (walker, pick) in [
+        ("without feedback", (|x: &super::SeedRuns| &x.cpg) as fn(&super::SeedRuns) -> &super::Conditions),
+        ("with feedback", |x: &super::SeedRuns| &x.cpg_feedback),
+    ] {
+        let runs: Vec<&super::SimRun> = r
+            .eval
+            .seeds
+            .iter()
+            .flat_map(|x| {
+                let c = pick(x);
+                [&c.flat, &c.pushes, &c.tempo].into_iter().chain(c.stop.as_ref())
+            })
+            .collect();
+        let early: Vec<f64> = runs
+            .iter()
+            .filter(|x| x.fell && x.handover_s.is_some_and(|h| x.upright_s < h))
+            .filter_map(|x| x.handover_s)
+            .collect();
+        if !early.is_empty() {
+            s.line(format!(
+                "{} of the {} runs of the CPG {walker} fell before the CPG took over (at {} s, the tenth left touch-down of the planned start): those runs measure the start walk played open loop, not the CPG.",
+                early.len(),
+                runs.len(),
+                spread(&early, 1)
+            ));
+        }
+    }
 }
 
 /// The first seed's recorded runs: the trunk's path from above and the soles' contacts.
