@@ -34,9 +34,10 @@ pub const MAX_NOISE_DRAWS: usize = 100;
 pub struct Config {
     /// What to learn.
     pub data: DataSection,
-    /// The reservoir: a preset plus overrides.
+    /// The reservoir: a preset plus the parameters given over it (the
+    /// reservoir crate's own schema, [`cpg_reservoir::ReservoirSettings`]).
     #[serde(default)]
-    pub reservoir: ReservoirSection,
+    pub reservoir: cpg_reservoir::ReservoirSettings,
     /// How the readout and its penalty are chosen.
     #[serde(default)]
     pub training: TrainingSection,
@@ -178,70 +179,6 @@ pub struct TempoSection {
     pub teachers: Vec<f64>,
 }
 
-/// `[reservoir]`: the paper's preset plus overrides.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ReservoirSection {
-    /// Base values: `wyffels-schrauwen-2009`.
-    #[serde(default = "default_preset")]
-    pub preset: String,
-    /// Seed of the random weights.
-    #[serde(default = "default_seed")]
-    pub seed: u64,
-    /// Number of neurons.
-    pub n_neurons: Option<usize>,
-    /// Fraction of non-zero recurrent weights.
-    pub connectivity: Option<f64>,
-    /// Spectral radius of W.
-    pub spectral_radius: Option<f64>,
-    /// Leak rate.
-    pub leak_rate: Option<f64>,
-    /// Interval of the uniform per-neuron bias.
-    pub bias_range: Option<[f64; 2]>,
-    /// Output feedback coupling.
-    pub feedback: Option<CouplingSection>,
-    /// One coupling per control input (default: 50 % at ±0.2 each).
-    pub inputs: Option<Vec<CouplingSection>>,
-    /// `tanh` or `logistic`.
-    pub activation: Option<String>,
-    /// `f32` or `f64`.
-    pub precision: Option<String>,
-    /// The control input (by name) that multiplies the leak rate.
-    pub tempo_input: Option<String>,
-}
-
-impl Default for ReservoirSection {
-    fn default() -> Self {
-        ReservoirSection {
-            preset: default_preset(),
-            seed: default_seed(),
-            n_neurons: None,
-            connectivity: None,
-            spectral_radius: None,
-            leak_rate: None,
-            bias_range: None,
-            feedback: None,
-            inputs: None,
-            activation: None,
-            precision: None,
-            tempo_input: None,
-        }
-    }
-}
-
-/// A coupling: `fraction` of the neurons at `±scale`, driven by `(u − center)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CouplingSection {
-    /// Fraction of neurons connected.
-    pub fraction: f64,
-    /// Weight magnitude.
-    pub scale: f64,
-    /// Input value that drives nothing.
-    #[serde(default)]
-    pub center: f64,
-}
-
 /// `[training]`: washout, the penalty grid and how candidates are validated.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -265,8 +202,8 @@ pub struct TrainingSection {
     #[serde(default = "default_penalties")]
     pub penalty_log10: PenaltyRange,
     /// `nmse` (the paper's) or `orbit` (ours).
-    #[serde(default = "default_score")]
-    pub score: String,
+    #[serde(default)]
+    pub score: ScoreKind,
     /// Standard deviation of noise on the fed-back teacher while harvesting (normalised units; 0: none).
     #[serde(default)]
     pub teacher_noise: f64,
@@ -286,7 +223,7 @@ impl Default for TrainingSection {
             noise_draws: default_draws(),
             noise_seed: default_seed(),
             penalty_log10: default_penalties(),
-            score: default_score(),
+            score: ScoreKind::default(),
             teacher_noise: 0.0,
             prefer_larger_within: 0.0,
             orbit: None,
@@ -370,9 +307,6 @@ impl ExperimentSection {
     /// Bounds every count and duration of the test protocol: (field, message) on failure.
     fn check(&self) -> std::result::Result<(), (String, String)> {
         let fail = |f: &str, m: String| Err((format!("experiment.{f}"), m));
-        if !PROTOCOLS.contains(&self.protocol.as_str()) {
-            return fail("protocol", format!("'{}'; valid: {}", self.protocol, PROTOCOLS.join(", ")));
-        }
         if !(1..=1000).contains(&self.seeds) {
             return fail("seeds", format!("{}; expected 1 to 1000", self.seeds));
         }
@@ -397,9 +331,84 @@ pub struct OutputSection {
     pub model: PathBuf,
 }
 
-/// The values of `experiment.protocol`: the paper's, ours (the paper's
-/// mechanism with our choices), an extension of the mechanism, a variant tried.
-pub const PROTOCOLS: [&str; 4] = ["paper", "ours", "extension", "tried"];
+/// `experiment.protocol`: whose protocol a configuration follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Protocol {
+    /// The paper's.
+    Paper,
+    /// Ours: the paper's mechanism with our validation and training choices.
+    Ours,
+    /// An extension of the paper's mechanism.
+    Extension,
+    /// A variant tried.
+    Tried,
+}
+
+impl Protocol {
+    /// The name a configuration file writes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Protocol::Paper => "paper",
+            Protocol::Ours => "ours",
+            Protocol::Extension => "extension",
+            Protocol::Tried => "tried",
+        }
+    }
+}
+
+impl std::str::FromStr for Protocol {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Protocol, String> {
+        [Protocol::Paper, Protocol::Ours, Protocol::Extension, Protocol::Tried]
+            .into_iter()
+            .find(|p| p.as_str() == s)
+            .ok_or_else(|| format!("'{s}'; valid: paper, ours, extension, tried"))
+    }
+}
+
+impl std::fmt::Display for Protocol {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// `training.score`: how a penalty is validated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ScoreKind {
+    /// The paper's: the NMSE of a noisy free run against the teacher.
+    #[default]
+    Nmse,
+    /// Ours: the distance of a free run to each teacher's orbit ([`OrbitSection`]).
+    Orbit,
+}
+
+impl ScoreKind {
+    /// The name a configuration file writes.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ScoreKind::Nmse => "nmse",
+            ScoreKind::Orbit => "orbit",
+        }
+    }
+}
+
+impl std::str::FromStr for ScoreKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<ScoreKind, String> {
+        [ScoreKind::Nmse, ScoreKind::Orbit]
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| format!("'{s}'; valid: nmse (the paper's), orbit"))
+    }
+}
+
+impl std::fmt::Display for ScoreKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
 
 /// `[experiment]`: the test protocol the report runs on this configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -410,7 +419,7 @@ pub struct ExperimentSection {
     /// Title for the report.
     pub title: String,
     /// `paper`, `ours`, `extension` or `tried`.
-    pub protocol: String,
+    pub protocol: Protocol,
     /// One line on what this configuration tries (for the report's table of what was tried).
     pub method: Option<String>,
     /// The configuration of the same experiment with the paper's protocol,
@@ -613,8 +622,11 @@ impl CouplingTestSection {
     fn check(&self) -> std::result::Result<(), (String, String)> {
         seconds_within("run_s", self.run_s, 1.0, DAY_S)?;
         seconds_within("quick_run_s", self.quick_run_s, 1.0, DAY_S)?;
-        if !(1..=20_000).contains(&self.quick_neurons) {
-            return Err(("quick_neurons".into(), format!("{}; expected 1 to 20000", self.quick_neurons)));
+        if !(1..=cpg_reservoir::MAX_NEURONS).contains(&self.quick_neurons) {
+            return Err((
+                "quick_neurons".into(),
+                format!("{}; expected 1 to {}", self.quick_neurons, cpg_reservoir::MAX_NEURONS),
+            ));
         }
         Ok(())
     }
@@ -758,9 +770,6 @@ fn default_seam() -> f64 {
 fn default_knot_every() -> usize {
     700
 }
-fn default_preset() -> String {
-    "wyffels-schrauwen-2009".into()
-}
 fn default_seed() -> u64 {
     1
 }
@@ -778,9 +787,6 @@ fn default_draws() -> usize {
 }
 fn default_penalties() -> PenaltyRange {
     PenaltyRange { start: 1.0, step: 0.1, stop: -8.0 }
-}
-fn default_score() -> String {
-    "nmse".into()
 }
 fn default_stay() -> f64 {
     10.0
@@ -1019,14 +1025,12 @@ impl Config {
         self.data.check().map_err(bad)?;
         self.training.check_sizes().map_err(bad)?;
         self.data.check_tempo().map_err(bad)?;
-        if let Some(name) = &self.reservoir.tempo_input
-            && !self.data.controls.contains(name)
-        {
-            return Err(bad((
-                "reservoir.tempo_input".into(),
-                format!("'{name}' is not a control input (data.controls: [{}])", self.data.controls.join(", ")),
-            )));
-        }
+        // The reservoir's own checks, before any data is read (one output
+        // stands for the data's; their count is checked when they are known).
+        self.reservoir
+            .resolve(1, &self.data.controls)
+            .and_then(|r| r.check())
+            .map_err(|e| bad((format!("reservoir.{}", e.field), format!("{}; {}", e.value, e.expected))))?;
         self.training.check(self.data.tempo.is_some()).map_err(bad)?;
         if let Some(e) = &self.experiment {
             e.check().map_err(bad)?;
@@ -1221,14 +1225,15 @@ impl TrainingSection {
         if !(p.start.abs() <= 300.0 && p.stop.abs() <= 300.0) {
             return fail("training.penalty_log10", "start and stop must lie within -300 to 300");
         }
-        match t.score.as_str() {
-            "nmse" if t.orbit.is_some() => return fail("training.orbit", "is used only with score = \"orbit\""),
-            "nmse" => {}
-            "orbit" => match &t.orbit {
+        match t.score {
+            ScoreKind::Nmse if t.orbit.is_some() => {
+                return fail("training.orbit", "is used only with score = \"orbit\"");
+            }
+            ScoreKind::Nmse => {}
+            ScoreKind::Orbit => match &t.orbit {
                 Some(o) => o.check(tempo)?,
                 None => return fail("training.orbit", "score = \"orbit\" needs a [training.orbit] section"),
             },
-            other => return fail("training.score", format!("'{other}'; valid: nmse (the paper's), orbit")),
         }
         if !(t.noise_variance.is_finite() && t.noise_variance >= 0.0) {
             return fail("training.noise_variance", format!("{}; expected a number >= 0", t.noise_variance));

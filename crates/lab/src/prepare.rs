@@ -605,7 +605,7 @@ fn recorded_sequences(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<S
         }
     }
     let t = outs.len() / d;
-    if c.training.score == "orbit" {
+    if c.training.score == crate::config::ScoreKind::Orbit {
         return Err(Error::Unusable(
             "score = \"orbit\" needs looped segments (loop_cycles >= 1) to know each rhythm".into(),
         ));
@@ -637,7 +637,7 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
     let r = select(c, &rec)?;
     let d = r.channels.len();
     let u = c.data.controls.len();
-    let orbit = c.training.score == "orbit";
+    let orbit = c.training.score == crate::config::ScoreKind::Orbit;
     let mut notes = Vec::new();
     let (seqs, cycles, teachers) = if c.data.loop_cycles == 0 {
         (recorded_sequences(c, &r, &mut notes)?, Vec::new(), Vec::new())

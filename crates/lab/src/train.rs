@@ -2,63 +2,20 @@
 //! experiment run, so that both compute the same model.
 
 use cpg_regression::PenaltyGrid;
-use cpg_reservoir::{Activation, Coupling, Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg};
+use cpg_reservoir::{Precision, Reservoir, ReservoirConfig, TrainSettings, TrainedCpg};
 
-use crate::config::{Config, CouplingSection};
+use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::prepare::{Prepared, prepare};
 
 /// The memory a training run may use, MiB (estimated before anything is allocated).
 pub const MEMORY_BUDGET_MIB: u64 = 4096;
 
-fn coupling(c: &CouplingSection) -> Coupling {
-    Coupling { fraction: c.fraction, scale: c.scale, center: c.center }
-}
-
 /// The reservoir of a configuration: the preset with the overrides applied.
 pub fn reservoir_config(c: &Config, n_outputs: usize) -> Result<ReservoirConfig> {
-    let r = &c.reservoir;
-    let bad = |field: &str, message: String| c.error(field, message);
-    let mut rc = match r.preset.as_str() {
-        "wyffels-schrauwen-2009" => ReservoirConfig::wyffels_schrauwen_2009(),
-        other => return Err(bad("reservoir.preset", format!("'{other}'; valid: wyffels-schrauwen-2009"))),
-    };
-    rc.n_outputs = n_outputs;
-    rc.n_neurons = r.n_neurons.unwrap_or(rc.n_neurons);
-    rc.connectivity = r.connectivity.unwrap_or(rc.connectivity);
-    rc.spectral_radius = r.spectral_radius.unwrap_or(rc.spectral_radius);
-    rc.leak_rate = r.leak_rate.unwrap_or(rc.leak_rate);
-    rc.bias_range = r.bias_range.unwrap_or(rc.bias_range);
-    if let Some(f) = &r.feedback {
-        rc.feedback = coupling(f);
-    }
-    let n_controls = c.data.controls.len();
-    rc.inputs = match &r.inputs {
-        Some(v) => v.iter().map(coupling).collect(),
-        None => vec![Coupling::new(0.5, 0.2); n_controls],
-    };
-    if rc.inputs.len() != n_controls {
-        return Err(bad(
-            "reservoir.inputs",
-            format!("has {} couplings for {n_controls} control inputs", rc.inputs.len()),
-        ));
-    }
-    if let Some(a) = &r.activation {
-        rc.activation = match a.as_str() {
-            "tanh" => Activation::Tanh,
-            "logistic" => Activation::Logistic,
-            other => return Err(bad("reservoir.activation", format!("'{other}'; valid: tanh, logistic"))),
-        };
-    }
-    if let Some(p) = &r.precision {
-        rc.precision = match p.as_str() {
-            "f32" => Precision::F32,
-            "f64" => Precision::F64,
-            other => return Err(bad("reservoir.precision", format!("'{other}'; valid: f32, f64"))),
-        };
-    }
-    rc.tempo_input = r.tempo_input.as_ref().and_then(|n| c.data.controls.iter().position(|x| x == n));
-    Ok(rc)
+    c.reservoir
+        .resolve(n_outputs, &c.data.controls)
+        .map_err(|e| c.error(&format!("reservoir.{}", e.field), format!("{}; {}", e.value, e.expected)))
 }
 
 /// The training settings of a configuration.

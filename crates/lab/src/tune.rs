@@ -59,7 +59,7 @@ pub struct Knobs {
     /// Noise on the fed-back teacher while harvesting.
     pub teacher_noise: f64,
     /// `nmse` or `orbit`.
-    pub score: String,
+    pub score: crate::config::ScoreKind,
     /// Validation noise (with `nmse`).
     pub noise_variance: f64,
     /// The selection rule's tolerance.
@@ -147,7 +147,7 @@ fn knobs_of(c: &Config) -> Knobs {
         feedback_scale: r.feedback.map_or(0.05, |f| f.scale),
         input_factor: 1.0,
         teacher_noise: c.training.teacher_noise,
-        score: c.training.score.clone(),
+        score: c.training.score,
         noise_variance: c.training.noise_variance,
         prefer_larger_within: c.training.prefer_larger_within,
     }
@@ -161,7 +161,7 @@ fn draw(g: &mut Draws) -> Knobs {
         feedback_scale: g.log_uniform(0.02, 0.5),
         input_factor: g.log_uniform(0.5, 2.0),
         teacher_noise: if g.unit() < 0.5 { 0.0 } else { g.log_uniform(0.01, 0.3) },
-        score: if orbit { "orbit".into() } else { "nmse".into() },
+        score: if orbit { crate::config::ScoreKind::Orbit } else { crate::config::ScoreKind::Nmse },
         noise_variance: if orbit { 0.0 } else { g.log_uniform(1e-7, 1e-3) },
         prefer_larger_within: if g.unit() < 0.5 { 0.0 } else { 1.0 },
     }
@@ -173,23 +173,20 @@ pub fn apply(base: &Config, k: &Knobs) -> Config {
     let r = &mut c.reservoir;
     r.spectral_radius = Some(k.spectral_radius);
     r.leak_rate = Some(k.leak_rate);
-    let fb = r.feedback.get_or_insert(crate::config::CouplingSection { fraction: 1.0, scale: 0.05, center: 0.0 });
+    let fb = r.feedback.get_or_insert(cpg_reservoir::Coupling::new(1.0, 0.05));
     fb.scale = k.feedback_scale;
     if let Some(inputs) = &mut r.inputs {
         for i in inputs {
             i.scale *= k.input_factor;
         }
     } else if !base.data.controls.is_empty() {
-        r.inputs = Some(vec![
-            crate::config::CouplingSection { fraction: 0.5, scale: 0.2 * k.input_factor, center: 0.0 };
-            base.data.controls.len()
-        ]);
+        r.inputs = Some(vec![cpg_reservoir::Coupling::new(0.5, 0.2 * k.input_factor); base.data.controls.len()]);
     }
     let t = &mut c.training;
     t.teacher_noise = k.teacher_noise;
     t.prefer_larger_within = k.prefer_larger_within;
-    t.score = k.score.clone();
-    if k.score == "orbit" {
+    t.score = k.score;
+    if k.score == crate::config::ScoreKind::Orbit {
         t.noise_variance = 0.0;
         t.noise_draws = 1;
         t.orbit.get_or_insert(OrbitSection {

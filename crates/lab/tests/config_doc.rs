@@ -28,9 +28,10 @@ fn paths(registry: &BTreeMap<String, ContainerFormat>, root: &str) -> Vec<String
                             walk(reg, &field.value, &p, out);
                         }
                     }
-                    // An externally tagged enum: a table named by the variant.
+                    // An externally tagged enum: a table named by the variant
+                    // (unit variants are values, `activation = "tanh"`, not keys).
                     Some(ContainerFormat::Enum(variants)) => {
-                        for v in variants.values() {
+                        for v in variants.values().filter(|v| !matches!(v.value, VariantFormat::Unit)) {
                             let p = format!("{prefix}.{}", v.name);
                             out.push(p.clone());
                             if let VariantFormat::NewType(inner) = &v.value {
@@ -57,6 +58,11 @@ fn trace<T: serde::de::DeserializeOwned>(root: &str) -> Vec<String> {
     let mut tracer = Tracer::new(TracerConfig::default());
     // Every variant of the experiment's test (an enum is traced one variant a pass).
     tracer.trace_simple_type::<cpg_lab::config::ExperimentTest>().unwrap();
+    tracer.trace_simple_type::<cpg_reservoir::Activation>().unwrap();
+    tracer.trace_simple_type::<cpg_reservoir::Precision>().unwrap();
+    tracer.trace_simple_type::<cpg_reservoir::Preset>().unwrap();
+    tracer.trace_simple_type::<cpg_lab::config::Protocol>().unwrap();
+    tracer.trace_simple_type::<cpg_lab::config::ScoreKind>().unwrap();
     tracer.trace_type::<T>(&Samples::new()).unwrap();
     let registry = tracer.registry().unwrap();
     paths(&registry, root)

@@ -42,7 +42,7 @@ def test_fit_checks_shapes_at_once():
         cpg.fit(bad, 120.0)
     with pytest.raises(cpg.CpgError, match="2 settings for 1 segments"):
         cpg.fit(np.zeros((100, 1)), 120.0, controls=[[1.0], [0.0]])
-    with pytest.raises(cpg.CpgError, match="`n_neurons` = 1000000000; expected 1 ..= 20000"):
+    with pytest.raises(cpg.CpgError, match="`reservoir.n_neurons` 1000000000; expected 1 ..= 20000"):
         cpg.fit(np.sin(np.arange(600) / 20.0)[:, None], 120.0, config={"reservoir": {"n_neurons": 10**9}})
     # A ValueError, for code that catches those.
     assert issubclass(cpg.CpgError, ValueError)

@@ -11,7 +11,7 @@ pub struct ConfigError {
     /// Its value, as text.
     pub value: String,
     /// The valid range.
-    pub expected: &'static str,
+    pub expected: String,
 }
 
 /// Everything that can go wrong in this crate.

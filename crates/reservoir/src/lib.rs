@@ -41,7 +41,10 @@ mod real;
 mod reservoir;
 mod train;
 
-pub use config::{Activation, CheckedConfig, Coupling, Precision, ReservoirConfig};
+pub use config::{
+    Activation, CheckedConfig, Coupling, MAX_NEURONS, MAX_OUTPUTS, Precision, Preset, ReservoirConfig,
+    ReservoirSettings,
+};
 pub use engine::Hold;
 pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;

@@ -30,8 +30,12 @@ use crate::train::{Scoring, TrainSettings, Training, ValidationPoint};
 
 /// Magic bytes that open every model file.
 pub const MAGIC: &[u8; 8] = b"CPGMODEL";
-/// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+/// The format version this build writes and reads. Version 4 stores the
+/// reservoir's configuration as JSON text (self-describing: a parameter
+/// added later reads as its default from older files); versions 2 and 3
+/// stored it as fixed bincode fields, and version 2 stored W scaled by the
+/// spectral radius.
+pub const FORMAT_VERSION: u32 = 4;
 /// The oldest format version this build reads.
 const OLDEST_VERSION: u32 = 2;
 /// The largest sample rate a model may have, Hz.
@@ -57,7 +61,9 @@ const HEADER: usize = 28;
 /// Decodes a payload with a bound on what its length prefixes may claim: a
 /// few times the payload's own size (in steps), so that a corrupt length
 /// (a string of 2^56 bytes in a 260-byte file) is an error, not an allocation.
-fn decode_payload(payload: &[u8]) -> std::result::Result<(Payload, usize), bincode::error::DecodeError> {
+fn decode_payload<C: serde::de::DeserializeOwned>(
+    payload: &[u8],
+) -> std::result::Result<(Payload<C>, usize), bincode::error::DecodeError> {
     use bincode::config::standard;
     use bincode::serde::decode_from_slice;
     const MIB: usize = 1 << 20;
@@ -209,10 +215,11 @@ pub struct TrainedCpg {
     pub skeleton_asf: Option<String>,
 }
 
-/// The serialisable form of a model (the payload of a file).
+/// The serialisable form of a model (the payload of a file): `C` is the
+/// configuration's form, JSON text from version 4 on, [`ConfigV3`] before.
 #[derive(Serialize, Deserialize)]
-struct Payload {
-    config: ReservoirConfig,
+struct Payload<C> {
+    config: C,
     seed: u64,
     w: Vec<f64>,
     w_feedback: Vec<f64>,
@@ -226,6 +233,66 @@ struct Payload {
     provenance: Provenance,
     teachers: Vec<Teacher>,
     skeleton_asf: Option<String>,
+}
+
+/// The reservoir configuration as versions 2 and 3 stored it: bincode
+/// fields in this order. Frozen: only for reading old files.
+#[derive(Serialize, Deserialize)]
+struct ConfigV3 {
+    n_neurons: usize,
+    connectivity: f64,
+    spectral_radius: f64,
+    leak_rate: f64,
+    bias_range: [f64; 2],
+    feedback: crate::config::Coupling,
+    inputs: Vec<crate::config::Coupling>,
+    n_outputs: usize,
+    activation: crate::config::Activation,
+    precision: crate::config::Precision,
+    tempo_input: Option<usize>,
+}
+
+/// `from` in the form `To`, field by field by name (the two configuration
+/// forms share their fields' names; serde's values keep every bit).
+fn convert<From: Serialize, To: serde::de::DeserializeOwned>(from: &From) -> std::result::Result<To, String> {
+    serde_json::to_value(from).and_then(serde_json::from_value).map_err(|e| format!("its reservoir configuration: {e}"))
+}
+
+impl<C> Payload<C> {
+    /// The same payload with its configuration turned into another form.
+    fn map_config<D>(
+        self,
+        f: impl FnOnce(C) -> std::result::Result<D, String>,
+    ) -> std::result::Result<Payload<D>, String> {
+        Ok(Payload {
+            config: f(self.config)?,
+            seed: self.seed,
+            w: self.w,
+            w_feedback: self.w_feedback,
+            w_input: self.w_input,
+            bias: self.bias,
+            raw_spectral_radius: self.raw_spectral_radius,
+            readout: self.readout,
+            start_state: self.start_state,
+            outputs: self.outputs,
+            controls: self.controls,
+            provenance: self.provenance,
+            teachers: self.teachers,
+            skeleton_asf: self.skeleton_asf,
+        })
+    }
+}
+
+/// Decodes the payload of a file of format `version` (2 to [`FORMAT_VERSION`]).
+fn decode_versioned(payload: &[u8], version: u32) -> std::result::Result<(Payload<ReservoirConfig>, usize), String> {
+    if version >= 4 {
+        let (f, used) = decode_payload::<String>(payload).map_err(|e| decode_error(&e))?;
+        let json = |text: String| serde_json::from_str(&text).map_err(|e| format!("its reservoir configuration: {e}"));
+        Ok((f.map_config(json)?, used))
+    } else {
+        let (f, used) = decode_payload::<ConfigV3>(payload).map_err(|e| decode_error(&e))?;
+        Ok((f.map_config(|c| convert(&c))?, used))
+    }
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -352,10 +419,34 @@ impl TrainedCpg {
         Ok(())
     }
 
-    /// Serialises the model into the file format.
-    pub fn to_bytes(&self) -> Result<Vec<u8>> {
-        let file = Payload {
-            config: self.reservoir.config().clone(),
+    /// Serialises the model into the file format of an older `version`
+    /// (2 or 3, for an older cpg to read) or the current one. Version 2
+    /// stored W scaled by the spectral radius.
+    pub fn to_bytes_version(&self, version: u32) -> Result<Vec<u8>> {
+        if version == FORMAT_VERSION {
+            return self.to_bytes();
+        }
+        if !(OLDEST_VERSION..FORMAT_VERSION).contains(&version) {
+            return Err(Error::Shape(format!(
+                "format version {version}; this build writes versions {OLDEST_VERSION} to {FORMAT_VERSION}"
+            )));
+        }
+        let c = self.reservoir.config();
+        let rho = if version == 2 { c.spectral_radius } else { 1.0 };
+        let config: ConfigV3 = convert(c).map_err(Error::Shape)?;
+        let mut file = self.payload(config);
+        file.w.iter_mut().for_each(|v| *v *= rho);
+        let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
+            .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
+        let mut out = TrainedCpg::frame_payload(&payload);
+        out[8..12].copy_from_slice(&version.to_le_bytes());
+        Ok(out)
+    }
+
+    /// The model's parts in the file's form, with `config`.
+    fn payload<C>(&self, config: C) -> Payload<C> {
+        Payload {
+            config,
             seed: self.reservoir.seed(),
             w: self.reservoir.w_unit().to_vec(),
             w_feedback: self.reservoir.w_feedback().to_vec(),
@@ -369,7 +460,14 @@ impl TrainedCpg {
             provenance: self.provenance.clone(),
             teachers: self.teachers.clone(),
             skeleton_asf: self.skeleton_asf.clone(),
-        };
+        }
+    }
+
+    /// Serialises the model into the file format.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        let config = serde_json::to_string(self.reservoir.config())
+            .map_err(|e| Error::Shape(format!("encoding the model's configuration: {e}")))?;
+        let file = self.payload(config);
         let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
             .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
         Ok(TrainedCpg::frame_payload(&payload))
@@ -420,7 +518,7 @@ impl TrainedCpg {
         if fnv1a(payload) != sum {
             return Err(bad("corrupt: the payload checksum does not match".into()));
         }
-        let (f, used) = decode_payload(payload).map_err(|e| bad(format!("corrupt payload: {}", decode_error(&e))))?;
+        let (f, used) = decode_versioned(payload, version).map_err(|e| bad(format!("corrupt payload: {e}")))?;
         if used != payload.len() {
             return Err(bad(format!("corrupt payload: {} trailing bytes", payload.len() - used)));
         }

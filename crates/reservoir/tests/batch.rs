@@ -186,20 +186,20 @@ fn steps_of_a_batch_allocate_nothing() {
 }
 
 #[test]
-fn version_2_model_files_are_read_with_w_at_radius_one() {
+fn older_model_files_are_read_as_they_were_written() {
+    let path = std::path::Path::new("old.cpg");
     for rho in [1.0, 0.8] {
         let m = model(32, 2, Precision::F64, |c| c.spectral_radius = rho);
-        let mut bytes = m.to_bytes().unwrap();
+        let bytes = m.to_bytes().unwrap();
         assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
-        // A version 2 file stored W scaled by the radius.
-        let payload = bytes.split_off(28);
-        let path = std::path::Path::new("v2.cpg");
-        let v3 = TrainedCpg::from_bytes(&TrainedCpg::frame_payload(&payload), path).unwrap();
-        assert_eq!(v3, m);
-        let scaled = scaled_payload(&m, rho);
-        let mut v2 = TrainedCpg::frame_payload(&scaled);
-        v2[8..12].copy_from_slice(&2u32.to_le_bytes());
-        let old = TrainedCpg::from_bytes(&v2, path).unwrap();
+        assert_eq!(TrainedCpg::from_bytes(&bytes, path).unwrap(), m);
+        // Version 3 stored the configuration as fixed bincode fields.
+        let v3 = m.to_bytes_version(3).unwrap();
+        assert_eq!(u32::from_le_bytes(v3[8..12].try_into().unwrap()), 3);
+        assert_ne!(v3, bytes);
+        assert_eq!(TrainedCpg::from_bytes(&v3, path).unwrap(), m, "a version 3 file is read exactly");
+        // Version 2 also stored W scaled by the radius.
+        let old = TrainedCpg::from_bytes(&m.to_bytes_version(2).unwrap(), path).unwrap();
         let err: f64 =
             old.reservoir.w_unit().iter().zip(m.reservoir.w_unit()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         if rho == 1.0 {
@@ -207,26 +207,39 @@ fn version_2_model_files_are_read_with_w_at_radius_one() {
         } else {
             assert!(err < 1e-15, "{err}");
         }
-        let mut v9 = TrainedCpg::frame_payload(&payload);
+        let mut v9 = bytes.clone();
         v9[8..12].copy_from_slice(&9u32.to_le_bytes());
         let e = TrainedCpg::from_bytes(&v9, path).unwrap_err().to_string();
         assert!(e.contains("format version 9") && e.contains("reads versions 2 to"), "{e}");
+        assert!(m.to_bytes_version(9).is_err());
     }
 }
 
-/// The payload of `m` with W multiplied by `rho` (what version 2 stored).
-fn scaled_payload(m: &TrainedCpg, rho: f64) -> Vec<u8> {
-    let r = &m.reservoir;
-    let scaled = Reservoir::from_parts(
-        r.config().clone(),
-        r.seed(),
-        r.w_unit().iter().map(|v| v * rho).collect(),
-        r.w_feedback().to_vec(),
-        r.w_input().to_vec(),
-        r.bias().to_vec(),
-        r.raw_spectral_radius(),
-    )
-    .unwrap();
-    let v = TrainedCpg { reservoir: scaled, ..m.clone() };
-    v.to_bytes().unwrap().split_off(28)
+/// A model file written by the last build of format version 3 (the fuzz
+/// seed's payload before version 4) still loads, and its configuration is
+/// the one it was trained with.
+#[test]
+fn a_file_from_the_last_version_3_build_loads() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let payload = std::fs::read(dir.join("sine-12-v3.payload")).unwrap();
+    let mut bytes = TrainedCpg::frame_payload(&payload);
+    bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+    let m = TrainedCpg::from_bytes(&bytes, &dir.join("sine-12-v3.payload")).unwrap();
+    let c = m.reservoir.config();
+    assert_eq!(c, &ReservoirConfig { n_neurons: 12, ..ReservoirConfig::wyffels_schrauwen_2009() });
+    assert_eq!(m.to_bytes_version(3).unwrap(), bytes, "written back as version 3, the same bytes");
+    // As version 4 the configuration is JSON text, each parameter by name.
+    let v4 = m.to_bytes().unwrap();
+    let text = String::from_utf8_lossy(&v4);
+    assert!(text.contains("\"n_neurons\":12") && text.contains("\"leak_rate\":0.3"), "{text}");
+}
+
+/// A configuration missing a parameter (a file written before it existed)
+/// reads it as the paper's value.
+#[test]
+fn a_configuration_without_a_parameter_takes_the_papers_value() {
+    let c: ReservoirConfig = serde_json::from_str(r#"{"n_neurons": 50, "n_outputs": 2}"#).unwrap();
+    assert_eq!(c, ReservoirConfig { n_neurons: 50, n_outputs: 2, ..ReservoirConfig::wyffels_schrauwen_2009() });
+    let e = serde_json::from_str::<ReservoirConfig>(r#"{"n_neuron": 50}"#).unwrap_err().to_string();
+    assert!(e.contains("unknown field `n_neuron`"), "{e}");
 }

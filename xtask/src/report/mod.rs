@@ -76,7 +76,7 @@ pub fn reservoir_experiments() -> anyhow::Result<Vec<PathBuf>> {
         }
         let c = Config::load(&p)?;
         let Some(x) = &c.experiment else { continue };
-        let rank = ["paper", "ours", "extension", "tried"].iter().position(|r| *r == x.protocol).unwrap_or(4);
+        let rank = x.protocol; // paper, ours, extension, tried: the declaration order
         let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let base = stem.split('-').next().unwrap_or_default().to_owned();
         found.push(((base, rank, stem), p));

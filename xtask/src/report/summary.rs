@@ -72,9 +72,9 @@ pub fn tried(md: &mut Md, runs: &[(String, Outcome)]) {
             vec![
                 h.id.clone(),
                 format!("`{file}`"),
-                protocol_word(&h.protocol).to_owned(),
+                protocol_word(h.protocol.as_str()).to_owned(),
                 h.method.clone(),
-                h.score.clone(),
+                h.score.to_string(),
                 format!("{} neurons", h.n_neurons),
                 format!("{p} of {n} ({what})"),
             ]

@@ -42,7 +42,7 @@ fn header(id: &str, protocol: &str, score: &str) -> Header {
     Header {
         id: id.into(),
         title: "a test".into(),
-        protocol: protocol.into(),
+        protocol: protocol.parse().unwrap(),
         method: format!("the {protocol} method"),
         config: format!("experiments/{}.toml", if protocol == "ours" { "e1" } else { "e1-paper" }),
         cycles: vec![SegmentCycle {
@@ -56,7 +56,7 @@ fn header(id: &str, protocol: &str, score: &str) -> Header {
             stride: None,
         }],
         notes: vec!["segment 1 (walk (35_01)): 358 frames hold 2.7 periods of 134.9, too few to see a second stride in the rhythm alone; both legs confirm one stride".into()],
-        score: score.into(),
+        score: score.parse().unwrap(),
         noise_variance: if score == "nmse" { 1e-3 } else { 0.0 },
         penalty_grid: (91, 1.0, -8.0),
         n_neurons: 300,

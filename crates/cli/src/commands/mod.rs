@@ -438,8 +438,11 @@ pub fn tune(config: &Path, s: &cpg_lab::tune::TuneSettings, output: Option<&Path
         )?;
         for c in r.candidates.iter().take(8) {
             let k = &c.knobs;
-            let score =
-                if k.score == "nmse" { format!("nmse (noise {:.0e})", k.noise_variance) } else { "orbit".into() };
+            let score = if k.score == cpg_lab::config::ScoreKind::Nmse {
+                format!("nmse (noise {:.0e})", k.noise_variance)
+            } else {
+                "orbit".into()
+            };
             writeln!(
                 report,
                 "{:>4} {:>3}/{:<2} {:>9.2} {:>6.2} {:>8.3} {:>8.3} {:>7.3} {:>6.3} {:>7} {:<20}",

@@ -149,8 +149,8 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
     if t.noise_variance > 0.0 {
         validation.push(Condition::Noise { variance: t.noise_variance, seed: t.noise_seed });
     }
-    match (t.score.as_str(), &t.orbit) {
-        ("orbit", Some(o)) => {
+    match (t.score, &t.orbit) {
+        (crate::config::ScoreKind::Orbit, Some(o)) => {
             // Stays as `prepare` lays them out: a ramp before each stay whose
             // controls differ from the previous ones (the first from the
             // warm-up's, which end on the first segment's or the tempo's).

@@ -204,7 +204,7 @@ impl CouplingResult {
             experiment: "E6".into(),
             claim: format!("{} joints stay phase-coupled over {:.0} s", self.rows.len(), self.run_s),
             sources: vec![Source::Quote(claim::PHASE_INTACT)],
-            protocol: h.protocol.clone(),
+            protocol: h.protocol.to_string(),
             differs: h.differs.iter().map(|d| d.describe()).collect(),
             measured: vec![
                 Measure::count(

@@ -260,16 +260,17 @@ pub fn section_heading(h: &Header, fig: &str) -> String {
 
 /// `fig2` for our protocol, `fig2-paper` for the paper's, `fig2-extension` for an extension.
 pub fn stem(base: &str, h: &Header) -> String {
-    if h.protocol == "ours" { base.to_owned() } else { format!("{base}-{}", h.protocol) }
+    if h.protocol == crate::config::Protocol::Ours { base.to_owned() } else { format!("{base}-{}", h.protocol) }
 }
 
 /// "the paper's protocol", "our protocol", "our extension", "tried".
 pub fn protocol_name(h: &Header) -> String {
-    match h.protocol.as_str() {
-        "ours" => "our protocol".into(),
-        "paper" => "the paper's protocol".into(),
-        "extension" => "our extension".into(),
-        other => other.to_owned(),
+    use crate::config::Protocol;
+    match h.protocol {
+        Protocol::Ours => "our protocol".into(),
+        Protocol::Paper => "the paper's protocol".into(),
+        Protocol::Extension => "our extension".into(),
+        Protocol::Tried => "tried".into(),
     }
 }
 
@@ -305,8 +306,8 @@ impl Context {
 pub fn protocol_line(h: &Header, ctx: &Context) -> String {
     let (n, a, b) = h.penalty_grid;
     let grid = format!("{n} penalties 10^{a} … 10^{b}");
-    let how = match h.score.as_str() {
-        "nmse" => format!(
+    let how = match h.score {
+        crate::config::ScoreKind::Nmse => format!(
             "validation by the NMSE of a free run against the teacher, step by step{}",
             if h.noise_variance > 0.0 {
                 format!(", under state noise of variance {}", h.noise_variance)
@@ -314,7 +315,7 @@ pub fn protocol_line(h: &Header, ctx: &Context) -> String {
                 String::new()
             }
         ),
-        _ => "validation by the orbit score: clean free runs at settings of the controls, each scored by the phase-aligned NMSE against its cycle".into(),
+        crate::config::ScoreKind::Orbit => "validation by the orbit score: clean free runs at settings of the controls, each scored by the phase-aligned NMSE against its cycle".into(),
     };
     format!("**{}** (`{}`): {} neurons; {grid}; {how}.", capital(&protocol_name(h)), ctx.path(&h.config), h.n_neurons)
 }
@@ -332,7 +333,7 @@ pub fn protocols(s: &mut Section, hs: &[&Header], ctx: &Context) {
                 s.line(format!("- {}", d.describe()));
             }
             s.blank();
-        } else if h.protocol == "paper" {
+        } else if h.protocol == crate::config::Protocol::Paper {
             s.line("Nothing the paper states differs.");
             s.blank();
         }

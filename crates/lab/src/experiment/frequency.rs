@@ -131,7 +131,7 @@ impl FrequencyResult {
                 self.plateaus.iter().copied().fold(f64::NEG_INFINITY, f64::max)
             ),
             sources: vec![Source::Quote(claim::SIX_TIMES), Source::Quote(claim::SMOOTH_CHANGE)],
-            protocol: h.protocol.clone(),
+            protocol: h.protocol.to_string(),
             differs: h.differs.iter().map(|d| d.describe()).collect(),
             measured: vec![Measure::count(
                 "seeds within 5 % of u·f0 and 25 % of the amplitude at every plateau and on the paper's schedule",

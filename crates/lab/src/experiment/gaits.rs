@@ -153,7 +153,7 @@ impl GaitsResult {
                 experiment: "E5".into(),
                 claim: "walk and run, switched smoothly both ways by two inputs".into(),
                 sources: vec![Source::Quote(claim::NO_TRANSITION_EXAMPLES)],
-                protocol: h.protocol.clone(),
+                protocol: h.protocol.to_string(),
                 differs: differs.clone(),
                 measured: vec![
                     Measure::count(
@@ -171,7 +171,7 @@ impl GaitsResult {
                 experiment: "E5".into(),
                 claim: "abrupt switches give spikes".into(),
                 sources: vec![Source::Quote(claim::SPIKES)],
-                protocol: h.protocol.clone(),
+                protocol: h.protocol.to_string(),
                 differs,
                 measured: vec![
                     Measure::spread("largest step after an abrupt switch", &col(&|s| s.max_jump_abrupt), "z", 3),

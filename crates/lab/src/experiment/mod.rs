@@ -161,7 +161,7 @@ pub fn penalty_warnings(seeds: &[&SeedModel], h: &Header) -> Vec<String> {
         }
         let scores: Vec<f64> = on.iter().map(|s| s.validation_score).collect();
         let sp = crate::stats::Spread::of(&scores);
-        let flat = h.score == "nmse" && edge == Edge::Upper && sp.min >= CONSTANT_OUTPUT_NMSE;
+        let flat = h.score == crate::config::ScoreKind::Nmse && edge == Edge::Upper && sp.min >= CONSTANT_OUTPUT_NMSE;
         out.push(format!(
             "The penalty sits at the grid's {name} edge (10^{at}) for {} of {n} seeds, with validation scores {:.3}–{:.3}{}",
             on.len(),
@@ -189,8 +189,8 @@ pub struct Header {
     pub id: String,
     /// Title.
     pub title: String,
-    /// `paper` or `ours`.
-    pub protocol: String,
+    /// Whose protocol.
+    pub protocol: crate::config::Protocol,
     /// What the configuration tries.
     pub method: String,
     /// The configuration file.
@@ -199,8 +199,8 @@ pub struct Header {
     pub cycles: Vec<SegmentCycle>,
     /// Notes of the data preparation.
     pub notes: Vec<String>,
-    /// Validation score (`nmse` or `orbit`) and noise variance.
-    pub score: String,
+    /// Validation score (`nmse` or `orbit`).
+    pub score: crate::config::ScoreKind,
     /// Validation state-noise variance.
     pub noise_variance: f64,
     /// Number of penalties in the grid, and its ends (log10).
@@ -219,7 +219,12 @@ pub struct Header {
 pub(crate) fn view_title(c: &Config) -> String {
     match &c.experiment {
         Some(e) => {
-            format!("{} ({} protocol): {}", e.id, if e.protocol == "paper" { "the paper's" } else { "our" }, e.title)
+            format!(
+                "{} ({} protocol): {}",
+                e.id,
+                if e.protocol == crate::config::Protocol::Paper { "the paper's" } else { "our" },
+                e.title
+            )
         }
         None => c.source.display().to_string(),
     }
@@ -407,17 +412,17 @@ pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
     Ok(Header {
         id: e.id.clone(),
         title: e.title.clone(),
-        protocol: e.protocol.clone(),
+        protocol: e.protocol,
         method: e.method.clone().unwrap_or_else(|| format!("the {} protocol", e.protocol)),
         config: c.source.display().to_string(),
         cycles: p.cycles.clone(),
         notes: p.notes.clone(),
-        score: c.training.score.clone(),
+        score: c.training.score,
         noise_variance: c.training.noise_variance,
         penalty_grid: (crate::train::train_settings(c)?.penalties.len(), g.start, g.stop),
         n_neurons,
-        differs: match (e.protocol.as_str(), &e.paper_config) {
-            ("paper", _) => differs::paper_protocol_differences(c),
+        differs: match (e.protocol, &e.paper_config) {
+            (crate::config::Protocol::Paper, _) => differs::paper_protocol_differences(c),
             // The files as written (a quick run changes sizes in memory).
             (_, Some(p)) => {
                 differs::differences(&Config::load(p)?, &Config::load(&c.source).unwrap_or_else(|_| c.clone()))?
@@ -497,12 +502,12 @@ mod tests {
         Header {
             id: "E4".into(),
             title: "a test".into(),
-            protocol: "paper".into(),
+            protocol: crate::config::Protocol::Paper,
             method: String::new(),
             config: String::new(),
             cycles: Vec::new(),
             notes: Vec::new(),
-            score: score.into(),
+            score: score.parse().unwrap(),
             noise_variance: 1e-3,
             penalty_grid: (131, 5.0, -8.0),
             n_neurons: 300,

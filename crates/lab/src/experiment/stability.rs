@@ -189,7 +189,7 @@ impl StabilityResult {
                 experiment: experiment.into(),
                 claim,
                 sources: vec![Source::Quote(q)],
-                protocol: h.protocol.clone(),
+                protocol: h.protocol.to_string(),
                 differs: differs.clone(),
                 measured,
                 verdict,

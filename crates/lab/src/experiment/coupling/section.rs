@@ -13,7 +13,7 @@ pub fn coupling(s: &mut Section, rs: &[&CouplingResult], ctx: &Context) {
         s.blank();
     }
     for r in rs {
-        let gif = (r.header.protocol == "ours").then_some(5.0);
+        let gif = (r.header.protocol == crate::config::Protocol::Ours).then_some(5.0);
         view(
             s,
             r.view.as_ref(),
