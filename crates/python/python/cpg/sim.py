@@ -163,6 +163,12 @@ def simulate(
         n: np.array([idx[f"{side}leg_joint_{k}"] for side in "lr" if f"{side}leg_joint_{k}" in idx], dtype=int)
         for n, k in (("hip_yaw", 1), ("hip_roll", 2), ("hip_pitch", 3), ("ankle_pitch", 5), ("ankle_roll", 6))
     }
+    groups = ("ankle_pitch", "ankle_roll", "hip_pitch", "hip_roll", "hip_yaw")
+    fed_joints = np.concatenate([fed[g] for g in groups])
+    fed_group = np.concatenate([np.full(len(fed[g]), k) for k, g in enumerate(groups)])
+    terms = np.zeros(len(groups))
+    # The servos in the walk's joint order: a slice when it is MuJoCo's own.
+    ctrl_all = np.array_equal(act, np.arange(len(act))) and len(act) == model.nu
     duration = float(times_s[-1] - times_s[0])
     total = duration if seconds is None else float(seconds)
     # Commands at the physics rate from the gait's clock (linear interpolation per joint).
@@ -287,11 +293,14 @@ def simulate(
         # Attitude feedback from the IMU.
         roll, pitch, yaw = _tilt(sensed[quat_adr : quat_adr + 4].tolist())
         wx, wy = sensed[gyro_adr : gyro_adr + 2].tolist()
-        target[fed["ankle_pitch"]] -= gains.ankle_pitch_kp * pitch + gains.ankle_pitch_kd * wy
-        target[fed["ankle_roll"]] -= gains.ankle_roll_kp * roll + gains.ankle_roll_kd * wx
-        target[fed["hip_pitch"]] -= gains.hip_pitch_kp * pitch
-        target[fed["hip_roll"]] -= gains.hip_roll_kp * roll
-        target[fed["hip_yaw"]] -= gains.hip_yaw_kp * yaw
+        # Each fed joint takes one group's term (the groups' joints are
+        # distinct), subtracted in one indexed operation.
+        terms[0] = gains.ankle_pitch_kp * pitch + gains.ankle_pitch_kd * wy
+        terms[1] = gains.ankle_roll_kp * roll + gains.ankle_roll_kd * wx
+        terms[2] = gains.hip_pitch_kp * pitch
+        terms[3] = gains.hip_roll_kp * roll
+        terms[4] = gains.hip_yaw_kp * yaw
+        target[fed_joints] -= terms[fed_group]
         # The ufuncs in place: np.clip's wrapper costs more than the work here.
         step_max = SPEED_LIMIT_RAD_S * dt
         delta = target - cmd
@@ -300,7 +309,10 @@ def simulate(
         cmd += delta
         np.minimum(cmd, hi, out=cmd)
         np.maximum(cmd, lo, out=cmd)
-        data.ctrl[act] = cmd
+        if ctrl_all:
+            data.ctrl[:] = cmd
+        else:
+            data.ctrl[act] = cmd
         # Pushes.
         if t >= next_push and push_left <= 0:
             dx, dy = DIRECTIONS[dirs[pushes_total % len(dirs)]]
