@@ -248,6 +248,13 @@ fn settle(dist: &[f64], release: usize, threshold: f64, hold: usize, rate_hz: f6
     (from <= last && last + 1 - from >= hold.max(1)).then(|| (from - release) as f64 / rate_hz)
 }
 
+/// The steps [`recovery`] takes for one period of `cycle` (`p × d`): its
+/// period, or for a posture (one frame) [`POSTURE_HOLD_S`], whose windows
+/// then span a second as a rhythm's span its period.
+fn recovery_period(cycle: &[f64], d: usize, rate_hz: f64) -> usize {
+    if cycle.len() == d { ((POSTURE_HOLD_S * rate_hz).round() as usize).max(4) } else { cycle.len() / d.max(1) }
+}
+
 /// Compares a perturbed run `b` with its unperturbed twin `a` (both `T × d`,
 /// frame-major) after the step `release`, against the teacher `cycle`
 /// (`p × d`, the same units). At least 4 periods must follow the release.
@@ -260,9 +267,8 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
             cycle.len()
         )));
     }
-    // A posture's windows span POSTURE_HOLD_S as a rhythm's span its period.
     let posture = cycle.len() == d;
-    let p = if posture { ((POSTURE_HOLD_S * rate_hz).round() as usize).max(4) } else { cycle.len() / d };
+    let p = recovery_period(cycle, d, rate_hz);
     let t = a.len() / d;
     if t < release + 4 * p {
         return Err(Error::Shape(format!(
@@ -473,7 +479,7 @@ pub fn judge(
     let mut out = Vec::with_capacity(settings.len());
     for (s, t) in settings {
         let posture = t.is_posture(d);
-        let p = if posture { (POSTURE_HOLD_S * rate).round() as usize } else { t.cycle.len() / d };
+        let p = recovery_period(&t.cycle, d, rate);
         let push = push_for(&PushSection::default(), t, d, rate);
         let release = push.at + push.len;
         if steps < release + 4 * p {
