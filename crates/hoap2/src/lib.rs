@@ -21,6 +21,9 @@
 //! - [`physics`]: the robot as a physical body (a solid box per link, its
 //!   centre of mass and inertia, collision shapes) and the MuJoCo model built
 //!   from the URDF ([`physics::mjcf`]; the project's `assets/hoap2/hoap2.xml`).
+//! - [`control`]: the walk's controller inside a physics loop (the plan or a
+//!   generator, balance feedback from an IMU, the servos' speed and range),
+//!   on plain slices; `cpg.sim` runs MuJoCo with it.
 //! - [`MapPlan`]: the map resolved against a robot and a channel list, for
 //!   mapping one frame at a time without allocating (live control loops).
 //!
@@ -28,6 +31,7 @@
 //! the mocap or reservoir crates.
 
 pub mod assets;
+pub mod control;
 mod kinematics;
 pub mod physics;
 mod smooth;

@@ -10,6 +10,7 @@ mod errors;
 mod model;
 mod motion;
 mod robot;
+mod sim;
 mod stream;
 
 use pyo3::prelude::*;
@@ -18,6 +19,7 @@ use errors::CpgError;
 use model::*;
 use motion::*;
 use robot::*;
+use sim::{_controls_at, WalkLoop};
 use stream::*;
 
 #[pymodule]
@@ -27,6 +29,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Model>()?;
     m.add_class::<Generator>()?;
     m.add_class::<Stream>()?;
+    m.add_class::<WalkLoop>()?;
     m.add_function(wrap_pyfunction!(read_motion, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(train, m)?)?;
@@ -37,6 +40,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(map_hoap2, m)?)?;
     m.add_function(wrap_pyfunction!(_model_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(_generator_from_state, m)?)?;
+    m.add_function(wrap_pyfunction!(_controls_at, m)?)?;
     m.add("DEFAULT_ACCELERATION_RAD_S2", cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)?;
     m.add("SPLIT_MIN_NEURONS", SPLIT_MIN_NEURONS)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -10,7 +10,8 @@ The walk is either a trajectory (``cpg retarget``'s CSV: time_s and one
 ``JOINT_rad`` column per joint, played by linear interpolation) or a trained
 model (``--model``, its channels named after the robot's joints, generated
 at the control rate). The controller is an outer loop around it, once per
-1-ms physics step:
+1-ms physics step (it runs in Rust, ``cpg_hoap2::control``, on MjData's
+own arrays; Python only calls it and MuJoCo):
 
 * **attitude feedback** from the simulated IMU (``imu_quat``, ``imu_gyro``):
   the trunk's pitch and roll and their rates, as offsets on the ankles
@@ -42,7 +43,6 @@ from typing import Optional
 
 import numpy as np
 
-SPEED_LIMIT_RAD_S = 5.0
 PUSH_S = 0.1
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
 
@@ -92,14 +92,6 @@ def read_trajectory(path: str):
         k = header.index("support")
         support = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[k], dtype=str, max_rows=2_000_000)
     return t, [header[k][: -len("_rad")] for k in cols], data[:, 1:], support
-
-
-def _tilt(quat):
-    w, x, y, z = quat  # Python floats: their arithmetic is the same IEEE double, faster than numpy scalars'
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
 
 
 def simulate(
@@ -157,43 +149,16 @@ def simulate(
         raise ValueError(f"the walk names a joint the HOAP-2 has no servo for: {e}") from None
     lo, hi = model.actuator_ctrlrange[act, 0], model.actuator_ctrlrange[act, 1]
     qadr = np.array([model.jnt_qposadr[model.joint(j).id] for j in joints])
-    idx = {j: k for k, j in enumerate(joints)}
-    # The joints each attitude gain moves, left then right (those the walk drives).
-    fed = {
-        n: np.array([idx[f"{side}leg_joint_{k}"] for side in "lr" if f"{side}leg_joint_{k}" in idx], dtype=int)
-        for n, k in (("hip_yaw", 1), ("hip_roll", 2), ("hip_pitch", 3), ("ankle_pitch", 5), ("ankle_roll", 6))
-    }
-    groups = ("ankle_pitch", "ankle_roll", "hip_pitch", "hip_roll", "hip_yaw")
-    fed_joints = np.concatenate([fed[g] for g in groups])
-    fed_group = np.concatenate([np.full(len(fed[g]), k) for k, g in enumerate(groups)])
-    terms = np.zeros(len(groups))
-    # The servos in the walk's joint order: a slice when it is MuJoCo's own.
-    ctrl_all = np.array_equal(act, np.arange(len(act))) and len(act) == model.nu
     duration = float(times_s[-1] - times_s[0])
     total = duration if seconds is None else float(seconds)
-    # Commands at the physics rate from the gait's clock (linear interpolation per joint).
-    clock_t = times_s - times_s[0]
-    uniform = np.allclose(np.diff(clock_t), clock_t[1] - clock_t[0], rtol=1e-6, atol=1e-9)
-    rate_hz = 1.0 / (clock_t[1] - clock_t[0])
-    last = len(clock_t) - 1
-
-    def frame_at(c):
-        if not uniform:
-            return np.array([np.interp(c, clock_t, angles_rad[:, k]) for k in range(len(joints))])
-        x = min(max(c * rate_hz, 0.0), float(last))
-        i = min(int(x), last - 1)
-        f = x - i
-        return angles_rad[i] * (1.0 - f) + angles_rad[i + 1] * f
-
-    first = frame_at(0.0)
-    held = (math.nan, first)  # the last clock read and its frame (the clock stops after the hand-over)
+    clock_t = np.ascontiguousarray(times_s - times_s[0], dtype=float)
+    angles_rad = np.ascontiguousarray(angles_rad, dtype=float)
+    first = angles_rad[0]
     data.qpos[qadr] = first
     data.ctrl[act] = first
     mujoco.mj_forward(model, data)
     trunk = model.body("trunk").id
     mass = float(np.sum(model.body_mass))
-    quat_adr = model.sensor("imu_quat").adr[0]
-    gyro_adr = model.sensor("imu_gyro").adr[0]
     touch_adr = [model.sensor("lleg_touch").adr[0], model.sensor("rleg_touch").adr[0]]
     start = data.xpos[trunk].copy()
     stand_z = start[2]
@@ -202,11 +167,33 @@ def simulate(
     if support is not None and len(support) == len(clock_t):
         for k in range(1, len(support)):
             if support[k] == "double" and support[k - 1] in ("left", "right"):
-                landings.append((clock_t[k], 1 if support[k - 1] == "left" else 0))  # the foot that swung
-    gen = None
-    ctl_names = list(cpg_model.controls) if cpg_model is not None else []
-    tempo_by_input = "u_tempo" in ctl_names
+                landings.append((float(clock_t[k]), 1 if support[k - 1] == "left" else 0))  # the foot that swung
+    # The controller (cpg._cpg._WalkLoop, cpg_hoap2::control): before each
+    # step it reads the sensors and writes data.ctrl, after it counts the
+    # servos' torque and work, on MjData's own arrays.
+    setup = dict(
+        clock_s=clock_t,
+        angles_rad=angles_rad,
+        joints=list(joints),
+        landings=landings,
+        act=[int(a) for a in act],
+        lo=[float(v) for v in lo],
+        hi=[float(v) for v in hi],
+        gains_json=json.dumps(dataclasses.asdict(gains)),
+        mass_kg=mass,
+        dt_s=dt,
+        tempo=float(tempo),
+        tempo_at_s=float(tempo_at_s),
+        sensordata=data.sensordata,
+        ctrl=data.ctrl,
+        force=data.actuator_force,
+        velocity=data.actuator_velocity,
+        quat_adr=int(model.sensor("imu_quat").adr[0]),
+        gyro_adr=int(model.sensor("imu_gyro").adr[0]),
+        touch_adr=[int(a) for a in touch_adr],
+    )
     if cpg_model is not None:
+        ctl_names = list(cpg_model.controls)
         base = dict(zip(ctl_names, cpg_model.teachers[0]["controls"])) if ctl_names else {}
         unknown = set(cpg_controls or {}) - set(ctl_names)
         if unknown:
@@ -214,28 +201,26 @@ def simulate(
         base.update(cpg_controls or {})
         if stop_at_s is not None and "u_walk" not in ctl_names:
             raise ValueError(f"stop_at_s needs a model with a u_walk input; its inputs are {ctl_names}")
-
-        def controls_at(t):
-            u = dict(base)
-            if tempo_by_input and t >= tempo_at_s:
-                # A cosine ramp to the new tempo, as the model was validated with.
-                s = 1.0 if tempo_ramp_s <= 0 else min(1.0, (t - tempo_at_s) / tempo_ramp_s)
-                w = 0.5 - 0.5 * math.cos(math.pi * s)
-                u["u_tempo"] = base["u_tempo"] * (1.0 + (tempo - 1.0) * w)
-            if stop_at_s is not None and t >= stop_at_s:
-                s = 1.0 if stop_ramp_s <= 0 else min(1.0, (t - stop_at_s) / stop_ramp_s)
-                u["u_walk"] = base["u_walk"] * (0.5 + 0.5 * math.cos(math.pi * s))
-            return [float(u[n]) for n in ctl_names]
-
-        gen, drive, gen_rate, gen_prev, gen_next, gen_due, handover_s = _generator_for(
-            cpg_model, joints, clock_t, angles_rad, support, handover_s, controls_at(0.0)
+        schedule = dict(
+            base=[float(base[c]) for c in ctl_names],
+            tempo_input=ctl_names.index("u_tempo") if "u_tempo" in ctl_names else None,
+            walk_input=ctl_names.index("u_walk") if "u_walk" in ctl_names else None,
+            tempo_ramp_s=float(tempo_ramp_s),
+            stop_at_s=None if stop_at_s is None else float(stop_at_s),
+            stop_ramp_s=float(stop_ramp_s),
         )
-    land_k = 0
-    clock = 0.0
-    waited = 0.0
-    cmd = first.copy()
+        u0 = cpg._cpg._controls_at(0.0, tempo=float(tempo), tempo_at_s=float(tempo_at_s), **schedule)
+        gen, drive, rate, first_rad, handover_s = _generator_for(cpg_model, joints, clock_t, angles_rad, support, handover_s, u0 or None)
+        setup.update(
+            generator=gen,
+            drive=[int(k) for k in drive],
+            rate_hz=rate,
+            handover_s=float(handover_s),
+            first_rad=[float(v) for v in first_rad],
+            **schedule,
+        )
+    loop = cpg._cpg._WalkLoop(**setup)
     fall_z, fall_up = 0.6 * stand_z, math.cos(math.radians(45))  # below 60 % of its height, tilted beyond 45°
-    work_j = 0.0
     pushes_total = pushes_survived = 0
     push_left = 0.0
     push_force = np.zeros(3)
@@ -249,70 +234,18 @@ def simulate(
     pose_joints = [model.actuator(k).name for k in range(model.nu)]
     all_q = np.array([model.jnt_qposadr[model.joint(j).id] for j in pose_joints])
     n = int(round(total / dt))
-    clock_end = float(clock_t[-1])
-    f_abs = np.zeros(model.nu)
-    torque_peak = np.zeros(model.nu)  # each servo's largest |torque| so far
     trunk_z = data.xpos[trunk][2:]  # views: MjData's arrays stay where they are
     trunk_up = data.xmat[trunk][8:]
     pushing = False
     settled_at = None if stop_at_s is None else stop_at_s + stop_ramp_s + 3.0
     settled_xy = None  # where the trunk was once the stop had settled
+    control, measure, mj_step = loop.control, loop.measure, mujoco.mj_step
     for step in range(n):
         t = step * dt
-        rate = tempo if t >= tempo_at_s else 1.0
-        # Contact feedback on the gait's clock.
-        sensed = data.sensordata
         recording = record_every and step % record_every == 0
-        touch = sensed[touch_adr] if gains.phase_reset or recording else None
-        advance = dt * rate
-        if gains.phase_reset and land_k < len(landings):
-            t_land, foot = landings[land_k]
-            loaded = touch[foot] > 0.2 * mass * 9.81
-            if clock + advance >= t_land and not loaded and waited < gains.max_wait_s:
-                advance = max(0.0, t_land - clock)
-                waited += dt
-            elif loaded and t_land - clock < 0.15 * rate and clock < t_land:
-                advance = t_land - clock  # landed early: jump to the touch-down
-        clock = min(clock + advance, clock_end)
-        while land_k < len(landings) and clock >= landings[land_k][0]:
-            land_k += 1
-            waited = 0.0
-        if clock != held[0]:
-            held = (clock, frame_at(clock))
-        target = held[1].copy()
-        if gen is not None and t >= handover_s:
-            # The generator steps inside the loop; between its steps the command is interpolated.
-            g_rate = gen_rate if tempo_by_input else gen_rate * rate
-            while gen_due <= t:
-                gen_prev = gen_next
-                gen_next = np.radians(np.asarray(gen.step(controls_at(t) if ctl_names else None), dtype=float))
-                gen_due += 1.0 / g_rate
-            f = 1.0 - (gen_due - t) * g_rate
-            target[drive] = gen_prev * (1.0 - f) + gen_next * f
-            clock = min(clock, handover_s)
-        # Attitude feedback from the IMU.
-        roll, pitch, yaw = _tilt(sensed[quat_adr : quat_adr + 4].tolist())
-        wx, wy = sensed[gyro_adr : gyro_adr + 2].tolist()
-        # Each fed joint takes one group's term (the groups' joints are
-        # distinct), subtracted in one indexed operation.
-        terms[0] = gains.ankle_pitch_kp * pitch + gains.ankle_pitch_kd * wy
-        terms[1] = gains.ankle_roll_kp * roll + gains.ankle_roll_kd * wx
-        terms[2] = gains.hip_pitch_kp * pitch
-        terms[3] = gains.hip_roll_kp * roll
-        terms[4] = gains.hip_yaw_kp * yaw
-        target[fed_joints] -= terms[fed_group]
-        # The ufuncs in place: np.clip's wrapper costs more than the work here.
-        step_max = SPEED_LIMIT_RAD_S * dt
-        delta = target - cmd
-        np.minimum(delta, step_max, out=delta)
-        np.maximum(delta, -step_max, out=delta)
-        cmd += delta
-        np.minimum(cmd, hi, out=cmd)
-        np.maximum(cmd, lo, out=cmd)
-        if ctrl_all:
-            data.ctrl[:] = cmd
-        else:
-            data.ctrl[act] = cmd
+        if recording:
+            touch = data.sensordata[touch_adr]  # the soles' forces as the controller reads them
+        control(t)
         # Pushes.
         if t >= next_push and push_left <= 0:
             dx, dy = DIRECTIONS[dirs[pushes_total % len(dirs)]]
@@ -326,11 +259,8 @@ def simulate(
             pushing = push_left > 0
             data.xfrc_applied[trunk, :3] = push_force if pushing else 0.0
         push_left -= dt
-        mujoco.mj_step(model, data)
-        # |f·v| = |f|·|v| exactly; the ufuncs' reduce skips ndarray.max's and sum's wrappers.
-        np.abs(data.actuator_force, out=f_abs)
-        np.maximum(torque_peak, f_abs, out=torque_peak)
-        work_j += float(np.add.reduce(f_abs * np.abs(data.actuator_velocity))) * dt
+        mj_step(model, data)
+        measure()
         if trunk_z[0] < fall_z or trunk_up[0] < fall_up:
             fell_at = t + dt
             break
@@ -359,13 +289,13 @@ def simulate(
         "heading_deg": heading,
         "speed_m_s": float(end[0]) / upright if upright > 0 else 0.0,
         "speed_leg_lengths_s": float(end[0]) / upright / leg_m if upright > 0 else 0.0,
-        "max_torque_nm": float(torque_peak.max()),
-        "cost_of_transport": work_j / (mass * 9.81 * distance) if distance > 1e-3 else None,
+        "max_torque_nm": float(max(loop.torque_peak)),
+        "cost_of_transport": loop.work_j / (mass * 9.81 * distance) if distance > 1e-3 else None,
         "pushes_survived": pushes_survived,
         "pushes_total": pushes_total,
-        "gait_clock_s": clock,
+        "gait_clock_s": loop.clock_s,
     }
-    if gen is not None:
+    if cpg_model is not None:
         out["handover_s"] = float(handover_s)
     if stop_at_s is not None:
         out["stop_at_s"] = float(stop_at_s)
@@ -433,7 +363,7 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
     for _ in range(best):
         gen.step(u)
     first = np.radians(np.asarray(gen.step(u), dtype=float))
-    return gen, drive, rate, first, first, handover_s, handover_s
+    return gen, drive, rate, first, handover_s
 
 
 def _umask() -> int:
