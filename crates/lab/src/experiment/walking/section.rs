@@ -70,6 +70,7 @@ pub fn section(s: &mut Section, r: &WalkingResult, ctx: &Context) {
         gains(&e.gains)
     ));
     if let Some(at) = e.seeds.iter().find_map(|x| x.cpg_feedback.stop.as_ref().and_then(|r| r.stop_at_s)) {
+        s.blank();
         s.line(format!(
             "A fourth run tells each CPG to stop at {at:.0} s: its walk input u_walk falls to 0 over 2 s (the length of the blends it was taught), and it should stand in its starting pose to the end."
         ));
@@ -130,6 +131,7 @@ fn early_falls(s: &mut Section, r: &WalkingResult) {
             .filter_map(|x| x.handover_s)
             .collect();
         if !early.is_empty() {
+            s.blank();
             s.line(format!(
                 "{} of the {} runs of the CPG {walker} fell before the CPG took over (at {} s, the tenth left touch-down of the planned start): those runs measure the start walk played open loop, not the CPG.",
                 early.len(),
