@@ -293,3 +293,32 @@ fn an_experiment_gives_the_same_bits_on_one_and_two_threads() {
     };
     assert_eq!(run(1), run(2));
 }
+
+/// The first step of the whole body in one generator (`examples/whole-body.toml`):
+/// 59 channels, the trials of each gait averaged into one teacher, six channels
+/// that never move held as constants; after a minute the generator stands
+/// still at (0, 0), walks at (1, 0) and runs at (0, 1), each at its teacher's
+/// period.
+#[test]
+fn the_whole_body_example_stands_walks_and_runs() {
+    let c = Config::load(&workspace_root().join("examples").join("whole-body.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let (m, p) = cpg_lab::train::train(&c, 2).unwrap();
+    assert_eq!(m.outputs.len(), 59);
+    let labels: Vec<&str> = m.teachers.iter().map(|t| t.label.as_str()).collect();
+    assert_eq!(labels, ["stand", "walk", "run"]);
+    assert!(p.notes.iter().any(|n| n.starts_with("6 channel(s) never move")), "{:?}", p.notes);
+    let judged = cpg_lab::measure::judge(&m, 60 * 120, None, 2).unwrap();
+    let stand = &judged[0].stability;
+    assert!(stand.accurate && stand.converged, "standing: {:?}", stand.posture);
+    for j in &judged[1..] {
+        let s = &j.stability;
+        let period = s.end.period_steps.unwrap_or(f64::NAN);
+        assert!(
+            (period / s.teacher.period_steps - 1.0).abs() < 0.02,
+            "{}: period {period:.1} steps against {:.1}",
+            j.teacher,
+            s.teacher.period_steps
+        );
+        assert!(s.end.aligned_nmse < 0.15, "{}: NMSE {:.3} at the end", j.teacher, s.end.aligned_nmse);
+    }
+}

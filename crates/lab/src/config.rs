@@ -156,6 +156,13 @@ pub struct SegmentSection {
     /// tempo); otherwise the mean frame of the motion (or of `frames`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub stand: bool,
+    /// Segments of one group are trials of one gait: each is looped and
+    /// trained on as its own block, and the group is one teacher (what
+    /// validation visits and evaluation judges): the average of its trials'
+    /// loops, each time-normalised to the group's median period and aligned
+    /// in phase with the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
 }
 
 /// `[data.tempo]`: the loop played at a rate `u(t)` that drifts smoothly
@@ -1132,6 +1139,23 @@ impl DataSection {
         count_within("data.loop_cycles", d.loop_cycles, 0, 100)?;
         count_within("data.samples_per_segment", d.samples_per_segment, 1, max_samples)?;
         count_within("data.segments", d.segments.len(), 1, MAX_SEGMENTS)?;
+        for (k, s) in d.segments.iter().enumerate() {
+            let Some(g) = &s.group else { continue };
+            let f = format!("data.segments[{k}].group");
+            if s.stand || d.loop_cycles == 0 || d.tempo.is_some() || d.retarget.is_some() {
+                return fail(
+                    &f,
+                    "groups trials of a rhythm: it needs looped motions (loop_cycles >= 1), not a standing segment, [data.tempo] or [data.retarget]",
+                );
+            }
+            if g.trim().is_empty() || g.len() > 100 {
+                return fail(&f, "expected a name of 1 to 100 characters");
+            }
+            let first = d.segments.iter().find(|x| x.group.as_ref() == Some(g)).map(|x| &x.controls);
+            if first != Some(&s.controls) {
+                return fail(&f, format!("'{g}': every trial of a group holds the same controls"));
+            }
+        }
         if let Some(k) = d.segments.iter().position(|s| s.stand) {
             if d.loop_cycles == 0 {
                 return fail(

@@ -9,7 +9,11 @@
 //!   has no period.
 //! - **Accurate**: at the end of the run the period is within
 //!   [`PERIOD_TOLERANCE`] of the teacher's and every channel's half range
-//!   within [`AMPLITUDE_TOLERANCE`] of the teacher's.
+//!   within [`AMPLITUDE_TOLERANCE`] of the teacher's. A channel that does
+//!   not move in the teacher (half range below [`STILL_HALF_RANGE`]: in the
+//!   data it never moves, and it is normalised in its own units) matches when
+//!   its half range stays below a tenth of [`POSTURE_TOLERANCE`], as a held
+//!   posture's channels do.
 //! - **Converged**: the same tolerances between the window ending at the
 //!   first minute and the last window: the rhythm no longer changes, whether
 //!   or not it is the teacher's.
@@ -52,6 +56,9 @@ pub const WINDOW_S: f64 = 10.0;
 /// Largest distance from a taught posture that still holds it, in each
 /// channel's own units (degrees for joint angles).
 pub const POSTURE_TOLERANCE: f64 = 1.0;
+/// A teacher's channel whose half range is below this (normalised units)
+/// does not move: [`within`] judges it as a posture's channel.
+pub const STILL_HALF_RANGE: f64 = 1e-6;
 /// A posture's "period" for the windows of [`recovery`], seconds: windows of a
 /// quarter of it, held for the whole of it.
 pub const POSTURE_HOLD_S: f64 = 1.0;
@@ -94,6 +101,11 @@ impl TeacherShape {
             amplitude: (0..d).map(|c| half_range(&column(&t.cycle, d, c))).collect(),
         }
     }
+
+    /// Which channels do not move in the teacher ([`STILL_HALF_RANGE`]).
+    pub fn still(&self) -> Vec<bool> {
+        self.amplitude.iter().map(|&a| a < STILL_HALF_RANGE).collect()
+    }
 }
 
 /// The rhythm of `window` (`t × d`) against `teacher`, periods measured on channel `reference`.
@@ -111,11 +123,15 @@ pub fn rhythm(window: &[f64], d: usize, teacher: &Teacher, reference: usize) -> 
     Rhythm { period_steps, amplitude, aligned_nmse: orbit_nmse(window, &stay, d), decayed }
 }
 
-/// Whether `a` matches `b` within the tolerances (period and every amplitude).
-pub fn within(a_period: Option<f64>, a_amp: &[f64], b_period: f64, b_amp: &[f64]) -> bool {
+/// Whether `a` matches `b` within the tolerances (period and every amplitude;
+/// a channel `still` in the teacher by staying below a tenth of
+/// [`POSTURE_TOLERANCE`]).
+pub fn within(a_period: Option<f64>, a_amp: &[f64], b_period: f64, b_amp: &[f64], still: &[bool]) -> bool {
     let Some(p) = a_period else { return false };
     (p / b_period - 1.0).abs() < PERIOD_TOLERANCE
-        && a_amp.iter().zip(b_amp).all(|(x, y)| (x / y - 1.0).abs() < AMPLITUDE_TOLERANCE)
+        && a_amp.iter().zip(b_amp).zip(still.iter().chain(std::iter::repeat(&false))).all(|((x, y), &s)| {
+            if s { *x < 0.1 * POSTURE_TOLERANCE } else { (x / y - 1.0).abs() < AMPLITUDE_TOLERANCE }
+        })
 }
 
 /// A long free run judged against its teacher.
@@ -185,9 +201,10 @@ pub fn stability(y: &[f64], d: usize, teacher: &Teacher, reference: usize, rate_
         }
     }
     let decayed_at_s = decayed_from.filter(|&k| k < steps).map(|k| k as f64 / rate_hz);
+    let still = shape.still();
     let converged = !early.decayed
-        && within(end.period_steps, &end.amplitude, early.period_steps.unwrap_or(f64::NAN), &early.amplitude);
-    let accurate = within(end.period_steps, &end.amplitude, shape.period_steps, &shape.amplitude);
+        && within(end.period_steps, &end.amplitude, early.period_steps.unwrap_or(f64::NAN), &early.amplitude, &still);
+    let accurate = within(end.period_steps, &end.amplitude, shape.period_steps, &shape.amplitude, &still);
     Stability { steps, teacher: shape, early, end, decayed_at_s, converged, accurate, posture: None }
 }
 
@@ -540,6 +557,21 @@ mod tests {
         let mut z = y.clone();
         z[500..].iter_mut().for_each(|v| *v *= 1e-3);
         assert_eq!(stability(&z, 1, &teacher, 0, 10.0).decayed_at_s, Some(50.0));
+    }
+
+    #[test]
+    fn a_channel_still_in_the_teacher_matches_while_it_stays_still() {
+        // Channel 0 a sine of period 100 steps, channel 1 never moves (normalised to 0).
+        let cycle: Vec<f64> = (0..100).flat_map(|k| [(k as f64 * std::f64::consts::TAU / 100.0).sin(), 0.0]).collect();
+        let teacher = Teacher { label: "walk".into(), controls: Vec::new(), cycle: cycle.clone(), rate: 1.0 };
+        assert_eq!(TeacherShape::of(&teacher, 2).still(), [false, true]);
+        let run = |wobble: f64| -> Vec<f64> {
+            (0..3000).flat_map(|k| [cycle[2 * (k % 100)], wobble * (k as f64 * 0.3).sin()]).collect()
+        };
+        let quiet = stability(&run(0.01), 2, &teacher, 0, 10.0);
+        assert!(quiet.accurate && quiet.converged, "±0.01 of a still channel is still");
+        let moving = stability(&run(0.2), 2, &teacher, 0, 10.0);
+        assert!(!moving.accurate, "±0.2 is not: a tenth of the posture tolerance is the bound");
     }
 
     #[test]

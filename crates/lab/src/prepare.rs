@@ -331,6 +331,8 @@ struct Read {
     channels: Vec<String>,
     parts: Vec<Motion>,
     z: ZScore,
+    /// Channels that never move in the data (normalised in their own units).
+    still: Vec<String>,
     labels: Vec<String>,
 }
 
@@ -362,7 +364,8 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
         parts.push(m.select(&names)?);
     }
     let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
-    let z = ZScore::fit(&all)?;
+    let (z, still) = ZScore::fit_holding_still(&all);
+    let still = still.into_iter().map(|k| channels[k].clone()).collect();
     let labels = d_sec
         .segments
         .iter()
@@ -374,7 +377,7 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
             })
         })
         .collect();
-    Ok(Read { channels, parts, z, labels })
+    Ok(Read { channels, parts, z, still, labels })
 }
 
 /// One seamless loop per segment (normalised, rotated to start at the
@@ -478,6 +481,73 @@ fn loops(
     Ok((loops, cycles))
 }
 
+/// One teacher per segment, but one per group of segments (`group`): the
+/// average of the group's loops, each resampled to the group's median period
+/// and shifted to the phase that best matches the first's.
+fn teachers_of(c: &Config, labels: &[String], loops: &[Vec<f64>], d: usize, notes: &mut Vec<String>) -> Vec<Teacher> {
+    let segs = &c.data.segments;
+    let mut out = Vec::new();
+    for (i, s) in segs.iter().enumerate() {
+        let Some(g) = &s.group else {
+            out.push(Teacher {
+                label: labels[i].clone(),
+                controls: s.controls.clone(),
+                cycle: loops[i].clone(),
+                rate: 1.0,
+            });
+            continue;
+        };
+        if segs[..i].iter().any(|x| x.group.as_ref() == Some(g)) {
+            continue;
+        }
+        let members: Vec<&[f64]> =
+            segs.iter().zip(loops).filter(|(x, _)| x.group.as_ref() == Some(g)).map(|(_, l)| l.as_slice()).collect();
+        let mut periods: Vec<usize> = members.iter().map(|l| l.len() / d).collect();
+        periods.sort_unstable();
+        let len =
+            crate::stats::median(&periods.iter().map(|&p| p as f64).collect::<Vec<_>>()).round().max(2.0) as usize;
+        let resampled: Vec<Vec<f64>> = members
+            .iter()
+            .map(|l| {
+                let p = l.len() / d;
+                (0..len)
+                    .flat_map(|k| (0..d).map(move |ch| periodic(l, p, d, k as f64 * p as f64 / len as f64, ch)))
+                    .collect()
+            })
+            .collect();
+        let mut mean = vec![0.0; len * d];
+        for r in &resampled {
+            let shift = best_shift(&resampled[0], r, d);
+            for (k, v) in mean.iter_mut().enumerate() {
+                *v += r[((k / d + shift) % len) * d + k % d];
+            }
+        }
+        mean.iter_mut().for_each(|v| *v /= members.len() as f64);
+        notes.push(format!(
+            "group {g}: {} trials (periods {}–{} frames) averaged into one cycle of {len} frames",
+            members.len(),
+            periods[0],
+            periods[periods.len() - 1]
+        ));
+        out.push(Teacher { label: g.clone(), controls: s.controls.clone(), cycle: mean, rate: 1.0 });
+    }
+    out
+}
+
+/// The circular shift (frames) of `b` closest to `a`, both `len × d`.
+fn best_shift(a: &[f64], b: &[f64], d: usize) -> usize {
+    let len = a.len() / d;
+    let cost = |s: usize| -> f64 {
+        (0..len).map(|k| (0..d).map(|ch| (a[k * d + ch] - b[((k + s) % len) * d + ch]).powi(2)).sum::<f64>()).sum()
+    };
+    (0..len)
+        .fold((0, f64::INFINITY), |best, s| {
+            let e = cost(s);
+            if e < best.1 { (s, e) } else { best }
+        })
+        .0
+}
+
 /// Training, warm-up and the paper's validation continuation of a sequence.
 struct Sequences {
     train: Sequence,
@@ -515,8 +585,9 @@ fn tempo_sequences(c: &Config, tp: &TempoSection, cycle: &[f64], d: usize) -> Re
 }
 
 /// Segment blocks, repeated, with optional phase-continuous morphs between them.
-fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Result<Sequences> {
+fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool) -> Result<Sequences> {
     let d_sec = &c.data;
+    let loops: Vec<&[f64]> = teachers.iter().map(|t| t.cycle.as_slice()).collect();
     let u = d_sec.controls.len();
     let v = c.training.validation_samples;
     let n_seg = loops.len();
@@ -538,14 +609,14 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
     let mut last = (0usize, 0.0f64);
     for b in 0..blocks {
         let i = b % n_seg;
-        let seg = &d_sec.segments[i];
+        let seg = &teachers[i];
         if morph == 0 {
-            outs.extend(tile(&loops[i], d, spb, 0));
+            outs.extend(tile(loops[i], d, spb, 0));
             last = (i, spb as f64 / frames(i));
         } else {
             let mut ph = if b == 0 { 0.0 } else { last.1 };
             for _ in 0..spb {
-                blend_at(&loops[i], &loops[i], d, ph, 0.0, &mut outs);
+                blend_at(loops[i], loops[i], d, ph, 0.0, &mut outs);
                 ph += 1.0 / frames(i);
             }
             last = (i, ph);
@@ -561,8 +632,8 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
             let mut ph = last.1;
             for k in 0..morph {
                 let w = cosine(k as f64 / morph as f64);
-                blend_at(&loops[i], &loops[j], d, ph, w, &mut outs);
-                for (a, b) in seg.controls.iter().zip(&d_sec.segments[j].controls) {
+                blend_at(loops[i], loops[j], d, ph, w, &mut outs);
+                for (a, b) in seg.controls.iter().zip(&teachers[j].controls) {
                     ctls.push((1.0 - w) * a + w * b);
                 }
                 // Into or out of a posture the rhythm keeps its own pace
@@ -579,15 +650,15 @@ fn block_sequences(c: &Config, loops: &[Vec<f64>], d: usize, orbit: bool) -> Res
     }
     let (li, lph) = last;
     let nmse_out = if morph == 0 {
-        tile(&loops[li], d, v, spb)
+        tile(loops[li], d, v, spb)
     } else {
         let mut o = Vec::with_capacity(v * d);
         for k in 0..v {
-            blend_at(&loops[li], &loops[li], d, lph + k as f64 / frames(li), 0.0, &mut o);
+            blend_at(loops[li], loops[li], d, lph + k as f64 / frames(li), 0.0, &mut o);
         }
         o
     };
-    let nmse_validation = Sequence { outputs: nmse_out, controls: d_sec.segments[li].controls.repeat(v) };
+    let nmse_validation = Sequence { outputs: nmse_out, controls: teachers[li].controls.repeat(v) };
     let train = Sequence { outputs: outs, controls: ctls };
     let warmup = if orbit { first_block.unwrap_or_else(|| train.clone()) } else { train.clone() };
     Ok(Sequences { train, warmup, nmse_validation })
@@ -639,6 +710,13 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
     let u = c.data.controls.len();
     let orbit = c.training.score == crate::config::ScoreKind::Orbit;
     let mut notes = Vec::new();
+    if !r.still.is_empty() {
+        notes.push(format!(
+            "{} channel(s) never move in the data and are learnt as constants, in their own units: {}",
+            r.still.len(),
+            r.still.join(", ")
+        ));
+    }
     let (seqs, cycles, teachers) = if c.data.loop_cycles == 0 {
         (recorded_sequences(c, &r, &mut notes)?, Vec::new(), Vec::new())
     } else {
@@ -646,17 +724,8 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
         let (seqs, teachers) = match &c.data.tempo {
             Some(tp) => tempo_sequences(c, tp, &loops[0], d)?,
             None => {
-                let teachers = loops
-                    .iter()
-                    .enumerate()
-                    .map(|(i, cyc)| Teacher {
-                        label: r.labels[i].clone(),
-                        controls: c.data.segments[i].controls.clone(),
-                        cycle: cyc.clone(),
-                        rate: 1.0,
-                    })
-                    .collect();
-                (block_sequences(c, &loops, d, orbit)?, teachers)
+                let teachers = teachers_of(c, &r.labels, &loops, d, &mut notes);
+                (block_sequences(c, &teachers, d, orbit)?, teachers)
             }
         };
         (seqs, cycles, teachers)
@@ -818,6 +887,67 @@ mod tests {
             })
             .collect();
         Motion::new(channels, values, 120.0).unwrap()
+    }
+
+    /// Two channels over 400 frames: `a.rx` a sine of `period` frames from
+    /// `phase` (radians), `b.rx` held at 3.
+    fn trial(period: f64, phase: f64) -> Motion {
+        let channels = vec![Channel::parse("a.rx").unwrap(), Channel::parse("b.rx").unwrap()];
+        let values = (0..400).flat_map(|k| [10.0 * (2.0 * PI * k as f64 / period + phase).sin(), 3.0]).collect();
+        Motion::new(channels, values, 120.0).unwrap()
+    }
+
+    const GROUPED: &str = r#"
+[data]
+channels = ["a.rx", "b.rx"]
+controls = ["u_walk"]
+samples_per_segment = 300
+morph_s = 1
+period_s = [0.5, 1.5]
+period_channel = "a.rx"
+[[data.segments]]
+motion = "x.amc"
+stand = true
+controls = [0]
+[[data.segments]]
+motion = "y.amc"
+controls = [1]
+group = "walk"
+[[data.segments]]
+motion = "z.amc"
+controls = [1]
+group = "walk"
+[reservoir]
+n_neurons = 20
+[training]
+score = "orbit"
+[training.orbit]
+sequence = [0, 1, 0]
+[output]
+model = "m.cpg"
+"#;
+
+    #[test]
+    fn a_group_of_trials_is_one_teacher_and_a_still_channel_is_held() {
+        let c = Config::from_toml(GROUPED, Path::new("g.toml"), Path::new(".")).unwrap();
+        let parts = vec![trial(100.0, 0.0), trial(100.0, 1.0), trial(110.0, 2.5)];
+        let p = prepare_recorded(&c, Recorded { skeleton: None, parts }).unwrap();
+        let labels: Vec<&str> = p.teachers.iter().map(|t| t.label.as_str()).collect();
+        assert_eq!(labels, ["x.amc", "walk"]);
+        let walk = &p.teachers[1].cycle;
+        assert_eq!(walk.len(), 2 * 105, "the median of periods 100 and 110 frames");
+        // Aligned in phase before averaging: the mean keeps the trials' amplitude (10 units over a std of ~7).
+        let a: Vec<f64> = walk.iter().step_by(2).copied().collect();
+        let half = (a.iter().cloned().fold(f64::MIN, f64::max) - a.iter().cloned().fold(f64::MAX, f64::min)) / 2.0;
+        let std = p.outputs[0].std;
+        assert!((half * std - 10.0).abs() < 0.5, "half range {} units", half * std);
+        assert!(walk.iter().skip(1).step_by(2).all(|&v| v == 0.0), "b.rx never moves: 0 in its own units");
+        assert_eq!((p.outputs[1].mean, p.outputs[1].std), (3.0, 1.0));
+        assert!(p.notes.iter().any(|n| n.contains("never move") && n.contains("b.rx")), "{:?}", p.notes);
+        assert!(p.notes.iter().any(|n| n.starts_with("group walk: 2 trials")), "{:?}", p.notes);
+        let mixed = GROUPED.replacen("controls = [1]\ngroup", "controls = [0.5]\ngroup", 1);
+        let e = Config::from_toml(&mixed, Path::new("g.toml"), Path::new(".")).unwrap_err().to_string();
+        assert!(e.contains("data.segments[2].group") && e.contains("same controls"), "{e}");
     }
 
     #[test]

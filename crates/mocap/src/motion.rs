@@ -267,6 +267,17 @@ impl ZScore {
     ///
     /// Fails on a constant channel, which cannot be normalised.
     pub fn fit(m: &Motion) -> Result<ZScore> {
+        let (z, still) = ZScore::fit_holding_still(m);
+        match still.first() {
+            Some(&k) => Err(Error::ConstantChannel(m.channels()[k].to_string())),
+            None => Ok(z),
+        }
+    }
+
+    /// Fits mean and standard deviation of every channel; a channel that
+    /// never moves (a standard deviation within 1e-12 of its size) keeps its
+    /// own units (standard deviation 1: it normalises to 0) and is listed.
+    pub fn fit_holding_still(m: &Motion) -> (ZScore, Vec<usize>) {
         let n = m.n_channels();
         let t = m.n_frames() as f64;
         let mut mean = vec![0.0; n];
@@ -282,13 +293,15 @@ impl ZScore {
                 *s += (v - mu) * (v - mu);
             }
         }
-        let std: Vec<f64> = var.iter().map(|v| (v / t).sqrt()).collect();
-        for (k, s) in std.iter().enumerate() {
+        let mut std: Vec<f64> = var.iter().map(|v| (v / t).sqrt()).collect();
+        let mut still = Vec::new();
+        for (k, s) in std.iter_mut().enumerate() {
             if *s <= 1e-12 * (1.0 + mean[k].abs()) {
-                return Err(Error::ConstantChannel(m.channels()[k].to_string()));
+                *s = 1.0;
+                still.push(k);
             }
         }
-        Ok(ZScore { channels: m.channel_names(), mean, std })
+        (ZScore { channels: m.channel_names(), mean, std }, still)
     }
 
     fn check(&self, m: &Motion) -> Result<()> {

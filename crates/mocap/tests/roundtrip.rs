@@ -130,6 +130,21 @@ fn select_slice_concat_repeat() {
 }
 
 #[test]
+fn a_channel_that_never_moves_is_held_in_its_own_units() {
+    let sk = skeleton();
+    let m = parse_amc("tiny.amc", AMC.as_bytes(), &sk, 120.0).unwrap();
+    let (z, still) = ZScore::fit_holding_still(&m);
+    let names = m.channel_names();
+    let ry = names.iter().position(|c| c == "root.ry").unwrap();
+    assert!(still.contains(&ry), "root.ry is constant in the fixture: {still:?}");
+    assert!(!still.contains(&names.iter().position(|c| c == "femur.rx").unwrap()));
+    assert_eq!(z.std[ry], 1.0);
+    let n = z.apply(&m).unwrap();
+    assert!((0..n.n_frames()).all(|f| n.frame(f)[ry] == 0.0), "a still channel normalises to 0");
+    assert_eq!(z.invert(&n).unwrap().values(), m.values(), "and comes back as it was");
+}
+
+#[test]
 fn motion_rejects_non_finite_values() {
     let ch = vec![Channel::parse("x.rx").unwrap()];
     assert!(Motion::new(ch.clone(), vec![1.0, f64::NAN], 120.0).is_err());

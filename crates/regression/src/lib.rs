@@ -26,5 +26,5 @@ mod sweep;
 pub mod fixed;
 pub use error::{Error, Result};
 pub use exp::exp_det;
-pub use ridge::{Readout, RidgePath, nmse, ridge_direct};
+pub use ridge::{Readout, RidgePath, STILL_VARIANCE, nmse, ridge_direct};
 pub use sweep::{PenaltyGrid, sweep, sweep_chunked};

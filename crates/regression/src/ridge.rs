@@ -230,9 +230,14 @@ pub fn ridge_direct(x: MatRef<'_, f64>, y: MatRef<'_, f64>, penalty: f64) -> Res
     Ok(readout(w.as_ref(), &x_mean, &y_mean))
 }
 
+/// Below this variance (normalised units²) a channel does not move: its
+/// squared error counts in its own units, not divided by a variance of ~0.
+pub const STILL_VARIANCE: f64 = 1e-12;
+
 /// Normalised mean squared error: for each output the mean squared error
-/// divided by the target's (population) variance, averaged over outputs.
-/// `prediction` and `target` are row-major `T × n_outputs`.
+/// divided by the target's (population) variance, averaged over outputs; an
+/// output whose target does not move (variance below [`STILL_VARIANCE`])
+/// adds its mean squared error itself. `prediction` and `target` are row-major `T × n_outputs`.
 ///
 /// Returns `f64::INFINITY` when the prediction holds a non-finite value.
 ///
@@ -253,7 +258,7 @@ pub fn nmse(prediction: &[f64], target: &[f64], n_outputs: usize) -> f64 {
         if !mse.is_finite() {
             return f64::INFINITY;
         }
-        total += mse / var.max(f64::MIN_POSITIVE);
+        total += if var < STILL_VARIANCE { mse } else { mse / var };
     }
     total / n_outputs as f64
 }

@@ -137,6 +137,17 @@ fn nmse_is_zero_for_a_perfect_fit_and_one_for_the_mean() {
 }
 
 #[test]
+fn a_still_output_adds_its_squared_error_in_its_own_units() {
+    // Output 0 never moves (0 throughout); output 1 is fitted exactly.
+    let target = [0.0, 1.0, 0.0, -1.0];
+    let off = [0.1, 1.0, -0.1, -1.0];
+    assert!((nmse(&off, &target, 2) - 0.01 / 2.0).abs() < 1e-15, "{}", nmse(&off, &target, 2));
+    // A target with a rounding-level wobble is still too: no division by ~1e-30.
+    let wobble = [1e-16, 1.0, -1e-16, -1.0];
+    assert!(nmse(&off, &wobble, 2) < 0.01);
+}
+
+#[test]
 fn bad_input_is_an_error() {
     let (x, y) = problem(50, 5, 1, 5);
     let mut bad = x.clone();

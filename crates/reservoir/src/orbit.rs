@@ -17,8 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// Below this variance (normalised units²) a teacher's channel does not move.
-pub const STILL_VARIANCE: f64 = 1e-12;
+/// Below this variance (normalised units²) a teacher's channel does not move
+/// (the regression's rule, so the one-step NMSE and the orbit score agree).
+pub use cpg_regression::STILL_VARIANCE;
 
 /// A stretch of a validation run that should be on one teacher's orbit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -359,7 +359,17 @@ fn print_rhythm(m: &cpg_reservoir::TrainedCpg, teacher: &str, ctl: &str, st: &cp
         ),
         (None, None) => println!("  no period found at the end"),
     }
+    let still = st.teacher.still();
     for (k, o) in m.outputs.iter().enumerate() {
+        if still[k] {
+            println!(
+                "  {}: still in the teacher; half range at the end {:.2e} (its own units; at most {} to match)",
+                o.name,
+                st.end.amplitude[k],
+                0.1 * cpg_lab::measure::POSTURE_TOLERANCE
+            );
+            continue;
+        }
         println!(
             "  {}: half range at the end {:.3} (normalised units; teacher {:.3}, {:+.1} %)",
             o.name,
