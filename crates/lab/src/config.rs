@@ -664,6 +664,10 @@ pub struct WalkingSection {
     /// Seconds of the cosine ramp of the tempo change.
     #[serde(default = "default_tempo_ramp_s")]
     pub tempo_ramp_s: f64,
+    /// Seconds of the cosine ramp of the stop (a model with a `u_walk` input
+    /// told to stop half-way through a fourth run).
+    #[serde(default = "default_tempo_ramp_s")]
+    pub stop_ramp_s: f64,
     /// Seconds of each CPG's free run at each tempo it was taught, judged as every model is.
     #[serde(default = "default_long")]
     pub judge_s: f64,
@@ -713,6 +717,7 @@ impl WalkingSection {
             return Err(("tempo".into(), format!("{}; expected 0.5 to 2", self.tempo)));
         }
         seconds_within("tempo_ramp_s", self.tempo_ramp_s, 0.0, 60.0)?;
+        seconds_within("stop_ramp_s", self.stop_ramp_s, 0.0, 60.0)?;
         seconds_within("judge_s", self.judge_s, 10.0, DAY_S)?;
         seconds_within("quick_judge_s", self.quick_judge_s, 10.0, DAY_S)?;
         if !(12..=MAX_RETARGET_STEPS).contains(&self.start_steps) {

@@ -50,6 +50,8 @@ pub fn run(work: &Path, c: &Config, quick: bool, threads: usize) -> anyhow::Resu
         &t.tempo.to_string(),
         "--tempo-ramp-s",
         &t.tempo_ramp_s.to_string(),
+        "--stop-ramp-s",
+        &t.stop_ramp_s.to_string(),
         "--judge-s",
         &judge_s,
         "--workers",

@@ -243,6 +243,10 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
             test.push(Condition::Plateau { u: 1.0, hold_s: half });
             test.push(Condition::Switch { at_s: half, ramp_s: w.tempo_ramp_s });
             test.push(Condition::Plateau { u: w.tempo, hold_s: half - w.tempo_ramp_s });
+            if c.data.controls.iter().any(|u| u == "u_walk") {
+                // A fourth run: the walk input ramped to 0 half-way (a stop).
+                test.push(Condition::Switch { at_s: half, ramp_s: w.stop_ramp_s });
+            }
         }
     }
     Ok(Conditions { validation, test })

@@ -189,6 +189,10 @@ pub struct WalkEval {
     pub tempo: f64,
     /// Seconds of its cosine ramp.
     pub tempo_ramp_s: f64,
+    /// Seconds of the stop's cosine ramp (runs recorded before it was a
+    /// setting ramped over 2 s).
+    #[serde(default = "two_seconds")]
+    pub stop_ramp_s: f64,
     /// The paper's joint-angle copy, if it ran.
     #[serde(default)]
     pub copy_run: Option<Conditions>,
@@ -304,6 +308,10 @@ pub struct WalkingResult {
     pub claims: Vec<Claim>,
 }
 
+fn two_seconds() -> f64 {
+    2.0
+}
+
 fn claim(c: &str, measured: Vec<Measure>, verdict: Verdict) -> Claim {
     Claim {
         experiment: "Walking".into(),
@@ -408,7 +416,7 @@ fn stop_claim(e: &WalkEval) -> Option<Claim> {
     let mut measured = vec![Measure::count(format!("seeds upright to the end after the stop at {at:.0} s"), up)];
     if !moved.is_empty() {
         measured.push(Measure::spread(
-            "the trunk's travel while standing (from 3 s after the stop to the end)",
+            "the trunk's travel while standing (from 3 s after the ramp's end to the end)",
             &moved.iter().map(|m| 1000.0 * m).collect::<Vec<_>>(),
             "mm",
             0,
@@ -421,7 +429,8 @@ fn stop_claim(e: &WalkEval) -> Option<Claim> {
             up.k >= need,
             false,
             format!(
-                "at least {need} of {n} seeds stay upright to the end when the walk input u_walk falls to 0 at {at:.0} s (a 2-s cosine ramp){}",
+                "at least {need} of {n} seeds stay upright to the end when the walk input u_walk falls to 0 at {at:.0} s (a {}-s cosine ramp){}",
+                e.stop_ramp_s,
                 if up.k >= need { String::new() } else { format!("; missed by {} seed(s)", need - up.k) }
             ),
         ),
@@ -620,6 +629,7 @@ mod tests {
             push_mps: 0.2,
             tempo: 1.1,
             tempo_ramp_s: 3.0,
+            stop_ramp_s: 3.0,
             copy_run: None,
             open_loop: conditions(run(true, 0.1, 0.0, (0, 0))),
             open_loop_feedback: conditions(run(false, 3.0, 1.0, (0, 0))),

@@ -30,7 +30,7 @@ from cpg.sim import Gains, _umask, fit_walk, read_trajectory, simulate
 RECORD_EVERY = 20
 
 
-def _conditions(walk, seconds, push_every_s, push_mps, tempo, tempo_ramp_s, **kw):
+def _conditions(walk, seconds, push_every_s, push_mps, tempo, tempo_ramp_s, stop_ramp_s, **kw):
     """The runs of a row: flat, pushed, a tempo change half-way, and (a CPG
     with a walk input) told to stop half-way."""
     out = {
@@ -40,7 +40,7 @@ def _conditions(walk, seconds, push_every_s, push_mps, tempo, tempo_ramp_s, **kw
     }
     model = kw.get("cpg_model")
     if model is not None and "u_walk" in list(model.controls):
-        out["stop"] = simulate(*walk, seconds=seconds, stop_at_s=seconds / 2, **kw)
+        out["stop"] = simulate(*walk, seconds=seconds, stop_at_s=seconds / 2, stop_ramp_s=stop_ramp_s, **kw)
     return out
 
 
@@ -68,6 +68,7 @@ def _one(job):
             a["push_mps"],
             a["tempo"],
             a["tempo_ramp_s"],
+            a["stop_ramp_s"],
             gains=g,
             cpg_model=model,
             record_every=record,
@@ -88,6 +89,7 @@ def main(argv=None) -> int:
     p.add_argument("--push-mps", type=float, default=0.2)
     p.add_argument("--tempo", type=float, default=1.1, help="the tempo change half-way through the third run")
     p.add_argument("--tempo-ramp-s", type=float, default=3.0, help="seconds of the tempo change's cosine ramp")
+    p.add_argument("--stop-ramp-s", type=float, default=3.0, help="seconds of the stop's cosine ramp (u_walk to 0)")
     p.add_argument("--neurons", type=int, default=600, help="without --config: the fitted CPG's size")
     p.add_argument("--judge-s", type=float, default=900.0, help="each CPG's free run at each tempo it was taught, judged")
     p.add_argument("--workers", type=int, default=2)
@@ -110,6 +112,7 @@ def main(argv=None) -> int:
         "push_mps": a.push_mps,
         "tempo": a.tempo,
         "tempo_ramp_s": a.tempo_ramp_s,
+        "stop_ramp_s": a.stop_ramp_s,
         "neurons": a.neurons,
         "first_seed": a.first_seed,
         "judge_s": a.judge_s,
@@ -121,7 +124,7 @@ def main(argv=None) -> int:
         "gains": json.loads(gains_json),
         **opts,
     }
-    cond = lambda w, **kw: _conditions(w, a.seconds, a.push_every_s, a.push_mps, a.tempo, a.tempo_ramp_s, **kw)  # noqa: E731
+    cond = lambda w, **kw: _conditions(w, a.seconds, a.push_every_s, a.push_mps, a.tempo, a.tempo_ramp_s, a.stop_ramp_s, **kw)  # noqa: E731
     t0 = time.perf_counter()
     if copy is not None:
         out["copy_run"] = cond(copy)

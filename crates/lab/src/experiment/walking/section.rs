@@ -72,7 +72,8 @@ pub fn section(s: &mut Section, r: &WalkingResult, ctx: &Context) {
     if let Some(at) = e.seeds.iter().find_map(|x| x.cpg_feedback.stop.as_ref().and_then(|r| r.stop_at_s)) {
         s.blank();
         s.line(format!(
-            "A fourth run tells each CPG to stop at {at:.0} s: its walk input u_walk falls to 0 over 2 s (the length of the blends it was taught), and it should stand in its starting pose to the end."
+            "A fourth run tells each CPG to stop at {at:.0} s: its walk input u_walk falls to 0 over {} s (it was taught with 2-s blends and validated over 2-s ramps), and it should stand in its starting pose to the end.",
+            e.stop_ramp_s
         ));
     }
     early_falls(s, r);
