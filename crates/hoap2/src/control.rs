@@ -242,9 +242,7 @@ impl<D: Drive> Driven<D> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(format!("the generator's rate {rate_hz} Hz: expected a positive number"));
         }
-        if schedule.tempo_input.max(schedule.walk_input).is_some_and(|k| k >= schedule.base.len()) {
-            return Err(format!("a control input's index beyond the {} inputs", schedule.base.len()));
-        }
+        schedule.check()?;
         let u = schedule.base.clone();
         Ok(Driven {
             drive,
@@ -261,6 +259,16 @@ impl<D: Drive> Driven<D> {
 }
 
 impl Schedule {
+    /// Whether the tempo and walk inputs name inputs of `base`.
+    pub fn check(&self) -> Result<(), String> {
+        match self.tempo_input.max(self.walk_input) {
+            Some(k) if k >= self.base.len() => {
+                Err(format!("a control input's index {k} beyond the {} inputs", self.base.len()))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The control values at `t_s` with a tempo factor `tempo` from
     /// `tempo_at_s` on, into `u` (one per input).
     pub fn at(&self, t_s: f64, tempo: f64, tempo_at_s: f64, u: &mut [f64]) {
@@ -302,7 +310,7 @@ pub struct WalkController<D> {
     hi: Vec<f64>,
     /// (joint, feedback group) of every joint the feedback moves.
     fed: Vec<(usize, usize)>,
-    /// Half the robot's weight share that counts as a loaded sole: 0.2·m·g.
+    /// The sole's force from which it counts as loaded: a fifth of the robot's weight, N.
     loaded_n: f64,
     tempo: f64,
     tempo_at_s: f64,

@@ -156,11 +156,10 @@ pub struct SegmentSection {
     /// tempo); otherwise the mean frame of the motion (or of `frames`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub stand: bool,
-    /// Segments of one group are trials of one gait: each is looped and
-    /// trained on as its own block, and the group is one teacher (what
-    /// validation visits and evaluation judges): the average of its trials'
-    /// loops, each time-normalised to the group's median period and aligned
-    /// in phase with the first.
+    /// Segments of one group are trials of one gait and one teacher (what
+    /// training loops, validation visits and evaluation judges): the average
+    /// of their loops, each time-normalised to the group's median period and
+    /// aligned in phase with the first.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<String>,
 }
@@ -666,7 +665,7 @@ pub struct WalkingSection {
     pub tempo_ramp_s: f64,
     /// Seconds of the cosine ramp of the stop (a model with a `u_walk` input
     /// told to stop half-way through a fourth run).
-    #[serde(default = "default_tempo_ramp_s")]
+    #[serde(default = "default_stop_ramp_s")]
     pub stop_ramp_s: f64,
     /// Seconds of each CPG's free run at each tempo it was taught, judged as every model is.
     #[serde(default = "default_long")]
@@ -699,6 +698,9 @@ fn default_walk_tempo() -> f64 {
     1.1
 }
 fn default_tempo_ramp_s() -> f64 {
+    3.0
+}
+fn default_stop_ramp_s() -> f64 {
     3.0
 }
 fn default_start_steps() -> usize {

@@ -12,8 +12,8 @@
 //!   within [`AMPLITUDE_TOLERANCE`] of the teacher's. A channel that does
 //!   not move in the teacher (half range below [`STILL_HALF_RANGE`]: in the
 //!   data it never moves, and it is normalised in its own units) matches when
-//!   its half range stays below a tenth of [`POSTURE_TOLERANCE`], as a held
-//!   posture's channels do.
+//!   its half range stays below [`STILL_SWING`], as a held posture's
+//!   channels do.
 //! - **Converged**: the same tolerances between the window ending at the
 //!   first minute and the last window: the rhythm no longer changes, whether
 //!   or not it is the teacher's.
@@ -56,6 +56,9 @@ pub const WINDOW_S: f64 = 10.0;
 /// Largest distance from a taught posture that still holds it, in each
 /// channel's own units (degrees for joint angles).
 pub const POSTURE_TOLERANCE: f64 = 1.0;
+/// Largest half range of a channel that holds still (a posture's channels, a
+/// channel that never moves in the teacher): a tenth of [`POSTURE_TOLERANCE`].
+pub const STILL_SWING: f64 = 0.1 * POSTURE_TOLERANCE;
 /// A teacher's channel whose half range is below this (normalised units)
 /// does not move: [`within`] judges it as a posture's channel.
 pub const STILL_HALF_RANGE: f64 = 1e-6;
@@ -124,13 +127,12 @@ pub fn rhythm(window: &[f64], d: usize, teacher: &Teacher, reference: usize) -> 
 }
 
 /// Whether `a` matches `b` within the tolerances (period and every amplitude;
-/// a channel `still` in the teacher by staying below a tenth of
-/// [`POSTURE_TOLERANCE`]).
+/// a channel `still` in the teacher by staying below [`STILL_SWING`]).
 pub fn within(a_period: Option<f64>, a_amp: &[f64], b_period: f64, b_amp: &[f64], still: &[bool]) -> bool {
     let Some(p) = a_period else { return false };
     (p / b_period - 1.0).abs() < PERIOD_TOLERANCE
-        && a_amp.iter().zip(b_amp).zip(still.iter().chain(std::iter::repeat(&false))).all(|((x, y), &s)| {
-            if s { *x < 0.1 * POSTURE_TOLERANCE } else { (x / y - 1.0).abs() < AMPLITUDE_TOLERANCE }
+        && a_amp.iter().zip(b_amp).enumerate().all(|(k, (x, y))| {
+            if still.get(k) == Some(&true) { *x < STILL_SWING } else { (x / y - 1.0).abs() < AMPLITUDE_TOLERANCE }
         })
 }
 
@@ -232,7 +234,7 @@ pub fn posture_stability(y: &[f64], d: usize, teacher: &Teacher, rate_hz: f64, s
         steps,
         teacher: TeacherShape::of(teacher, d),
         early,
-        converged: finite && swing.iter().all(|&a| a < 0.1 * POSTURE_TOLERANCE),
+        converged: finite && swing.iter().all(|&a| a < STILL_SWING),
         accurate: finite && deviation.iter().all(|&e| e <= POSTURE_TOLERANCE),
         end,
         decayed_at_s: None,

@@ -196,10 +196,9 @@ pub(crate) fn _controls_at(
     stop_at_s: Option<f64>,
     stop_ramp_s: f64,
 ) -> PyResult<Vec<f64>> {
-    if tempo_input.max(walk_input).is_some_and(|k| k >= base.len()) {
-        return Err(err(format!("a control input's index beyond the {} inputs", base.len())));
-    }
     let mut u = base.clone();
-    Schedule { base, tempo_input, walk_input, tempo_ramp_s, stop_at_s, stop_ramp_s }.at(t_s, tempo, tempo_at_s, &mut u);
+    let s = Schedule { base, tempo_input, walk_input, tempo_ramp_s, stop_at_s, stop_ramp_s };
+    s.check().map_err(err)?;
+    s.at(t_s, tempo, tempo_at_s, &mut u);
     Ok(u)
 }

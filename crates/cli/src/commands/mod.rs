@@ -339,7 +339,7 @@ fn print_posture(
     let tol = cpg_lab::measure::POSTURE_TOLERANCE;
     println!(
         "  still (every channel's half range at the end below {}): {}",
-        0.1 * tol,
+        cpg_lab::measure::STILL_SWING,
         if st.converged { "yes" } else { "no" }
     );
     println!(
@@ -366,7 +366,7 @@ fn print_rhythm(m: &cpg_reservoir::TrainedCpg, teacher: &str, ctl: &str, st: &cp
                 "  {}: still in the teacher; half range at the end {:.2e} (its own units; at most {} to match)",
                 o.name,
                 st.end.amplitude[k],
-                0.1 * cpg_lab::measure::POSTURE_TOLERANCE
+                cpg_lab::measure::STILL_SWING
             );
             continue;
         }
