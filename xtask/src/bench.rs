@@ -370,6 +370,7 @@ fn run_in(args: &Args, e1: &cpg_lab::Config, f: &Prepared, cpg: &Path, dir: &Pat
     }
     let e1_max = most(&|p| p.train.zip(p.generate).map(|(a, b)| a.max(b)));
     tune_throughput(cpg, dir, &mut memory)?;
+    big_models(cpg, dir, &mut memory)?;
     closed_loop(cpg, dir)?;
     if !args.no_evaluate {
         evaluation(dir, &mut memory)?;
@@ -1007,6 +1008,37 @@ fn tune_throughput(cpg: &Path, dir: &Path, memory: &mut Memory) -> anyhow::Resul
         n as f64 / (ran.wall_s / 60.0)
     );
     memory.rows.push((format!("`cpg tune` ({n} configurations × {seeds} seeds)"), ran.peak_mib));
+    Ok(())
+}
+
+/// Training the largest models as a user does (`cpg train`, a process on
+/// every core): E6's 2,000 neurons and the whole body's 59 channels, whose
+/// target is a minute.
+fn big_models(cpg: &Path, dir: &Path, memory: &mut Memory) -> anyhow::Result<()> {
+    const WHOLE_BODY_TARGET_S: f64 = 60.0;
+    println!("\nTraining the largest models (`cpg train`, one process on {} cores):\n", crate::cores());
+    println!("| configuration | wall time | target | verdict |");
+    println!("|---|---:|---|---|");
+    for (name, target) in [("e6.toml", None), ("whole-body.toml", Some(WHOLE_BODY_TARGET_S))] {
+        let out = dir.join(name.replace(".toml", ".cpg"));
+        let ran = run_child(
+            Command::new(cpg)
+                .arg("train")
+                .arg("--config")
+                .arg(crate::root().join("experiments").join(name))
+                .arg("-o")
+                .arg(&out),
+            "cpg train",
+            false,
+        )?;
+        println!(
+            "| `experiments/{name}` | {} | {} | {} |",
+            secs(ran.wall_s),
+            target.map_or(String::new(), |t| format!("≤ {t:.0} s")),
+            target.map_or("", |t| verdict(ran.wall_s <= t))
+        );
+        memory.rows.push((format!("`cpg train` (`experiments/{name}`)"), ran.peak_mib));
+    }
     Ok(())
 }
 

@@ -458,6 +458,9 @@ pub enum ExperimentTest {
     Coupling(CouplingTestSection),
     /// Walking in physics: the HOAP-2 in MuJoCo on the configuration's CPG.
     Walking(WalkingSection),
+    /// The whole body: standing, walking and running in one generator,
+    /// judged against trials training never read.
+    WholeBody(WholeBodySection),
 }
 
 impl ExperimentTest {
@@ -469,6 +472,7 @@ impl ExperimentTest {
             ExperimentTest::Gaits(_) => "gaits",
             ExperimentTest::Coupling(_) => "coupling",
             ExperimentTest::Walking(_) => "walking",
+            ExperimentTest::WholeBody(_) => "whole_body",
         }
     }
 
@@ -480,6 +484,7 @@ impl ExperimentTest {
             ExperimentTest::Gaits(t) => t.check(),
             ExperimentTest::Coupling(t) => t.check(),
             ExperimentTest::Walking(t) => t.check(),
+            ExperimentTest::WholeBody(t) => t.check(),
         }
         .map_err(|(k, m)| (format!("experiment.test.{}.{k}", self.kind()), m))
     }
@@ -496,6 +501,11 @@ impl ExperimentTest {
             ExperimentTest::Walking(t) => {
                 let mut v = vec![&mut t.gains];
                 v.extend(t.copy_config.as_mut());
+                v
+            }
+            ExperimentTest::WholeBody(t) => {
+                let mut v: Vec<&mut PathBuf> = t.held_out.iter_mut().flat_map(|h| h.motions.iter_mut()).collect();
+                v.extend(robot(t.robot.as_mut()));
                 v
             }
         }
@@ -724,6 +734,81 @@ impl WalkingSection {
         seconds_within("quick_judge_s", self.quick_judge_s, 10.0, DAY_S)?;
         if !(12..=MAX_RETARGET_STEPS).contains(&self.start_steps) {
             return Err(("start_steps".into(), format!("{}; expected 12 to {MAX_RETARGET_STEPS}", self.start_steps)));
+        }
+        Ok(())
+    }
+}
+
+/// `[experiment.test.whole_body]`: one generator that stands, walks and runs,
+/// selected by its control inputs; each gait judged against recorded trials
+/// that training never read, the states switched in one free run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WholeBodySection {
+    /// Seconds of each state's free run with its inputs held.
+    #[serde(default = "default_long")]
+    pub run_s: f64,
+    /// The same in a quick run.
+    #[serde(default = "default_quick_body_s")]
+    pub quick_run_s: f64,
+    /// The last seconds of the standing run over which every channel must stay within 1° of the posture.
+    #[serde(default = "default_stand_s")]
+    pub stand_s: f64,
+    /// Per gait (a teacher's label), the trials it is judged against.
+    pub held_out: Vec<HeldOutSection>,
+    /// The switching run: the teachers visited in turn (indices, a group counting once).
+    pub sequence: Vec<usize>,
+    /// Seconds each state of the switching run is held.
+    pub stay_s: f64,
+    /// Seconds of the cosine ramp of the inputs at each switch.
+    pub ramp_s: f64,
+    /// The robot the switching run is shown on (optional).
+    pub robot: Option<RobotSection>,
+}
+
+/// Trials of one gait that training never read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeldOutSection {
+    /// The teacher they judge (its label: a group's name).
+    pub teacher: String,
+    /// The trials (AMC with `data.skeleton`, at `data.rate_hz`).
+    pub motions: Vec<PathBuf>,
+}
+
+fn default_quick_body_s() -> f64 {
+    90.0
+}
+fn default_stand_s() -> f64 {
+    60.0
+}
+
+/// Most held-out trials of one gait.
+pub const MAX_HELD_OUT: usize = 100;
+
+impl WholeBodySection {
+    fn check(&self) -> std::result::Result<(), (String, String)> {
+        seconds_within("run_s", self.run_s, 20.0, DAY_S)?;
+        seconds_within("quick_run_s", self.quick_run_s, 20.0, DAY_S)?;
+        seconds_within("stand_s", self.stand_s, 1.0, self.quick_run_s.min(self.run_s))?;
+        seconds_within("stay_s", self.stay_s, 1.0, 3600.0)?;
+        seconds_within("ramp_s", self.ramp_s, 0.0, self.stay_s)?;
+        if self.held_out.is_empty() || self.held_out.len() > 100 {
+            return Err(("held_out".into(), format!("{} gaits; expected 1 to 100", self.held_out.len())));
+        }
+        for (k, h) in self.held_out.iter().enumerate() {
+            if !(2..=MAX_HELD_OUT).contains(&h.motions.len()) {
+                return Err((
+                    format!("held_out[{k}].motions"),
+                    format!(
+                        "{} trials; expected 2 to {MAX_HELD_OUT} (their spread among themselves is the yardstick)",
+                        h.motions.len()
+                    ),
+                ));
+            }
+        }
+        if !(2..=100).contains(&self.sequence.len()) {
+            return Err(("sequence".into(), format!("{} states; expected 2 to 100", self.sequence.len())));
         }
         Ok(())
     }

@@ -326,13 +326,13 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
 }
 
 /// Seconds from step `from` until `y` (`T × d`) is on the orbit of `cycle`
-/// (`p × d`) for good: the same windows and threshold as [`recovery`].
+/// (`p × d`; one frame: a posture) for good: the same windows and threshold as [`recovery`].
 pub fn settle_on_orbit(y: &[f64], d: usize, cycle: &[f64], from: usize, rate_hz: f64) -> Option<f64> {
-    let p = cycle.len() / d.max(1);
     let t = y.len() / d.max(1);
-    if p < 2 || t == 0 {
+    if d == 0 || cycle.len() < d || t == 0 {
         return None;
     }
+    let p = recovery_period(cycle, d, rate_hz);
     let w = (p / 4).max(2);
     let ending = orbit_distance(y, cycle, d, w);
     let dist: Vec<f64> = (0..t).map(|k| ending.get(k + w - 1).copied().unwrap_or(f64::INFINITY)).collect();

@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-use cpg_mocap::cycle::{autocorrelation, best_loop, estimate_period, tile};
+use cpg_mocap::cycle::{autocorrelation, best_loop, estimate_period, half_range, tile};
 use cpg_mocap::{Channel, Motion, Skeleton, ZScore};
 use cpg_reservoir::{Hold, OrbitStay, OutputChannel, Score, Scoring, Sequence, Teacher, TrainingData};
 
@@ -523,8 +523,27 @@ fn teachers_of(c: &Config, labels: &[String], loops: &[Vec<f64>], d: usize, note
             }
         }
         mean.iter_mut().for_each(|v| *v /= members.len() as f64);
+        // Averaging shrinks a channel whose swing is out of phase between
+        // trials (the hands, the neck): each channel's swing about its mean
+        // is scaled back to the median of the trials' half ranges.
+        let mut scales = Vec::with_capacity(d);
+        for ch in 0..d {
+            let mut own: Vec<f64> = resampled.iter().map(|r| half_range(&column(r, d, ch))).collect();
+            own.sort_by(f64::total_cmp);
+            let target = crate::stats::median(&own);
+            let col = column(&mean, d, ch);
+            let now = half_range(&col);
+            let scale = if now > 1e-9 && target > 1e-9 { target / now } else { 1.0 };
+            let centre = col.iter().sum::<f64>() / len as f64;
+            for k in 0..len {
+                let v = &mut mean[k * d + ch];
+                *v = centre + scale * (*v - centre);
+            }
+            scales.push(scale);
+        }
+        let widest = scales.iter().copied().fold(1.0, f64::max);
         notes.push(format!(
-            "group {g}: {} trials (periods {}–{} frames) averaged into one cycle of {len} frames",
+            "group {g}: {} trials (periods {}–{} frames) averaged into one cycle of {len} frames, each channel's swing scaled to the trials' median half range (by up to {widest:.2}×)",
             members.len(),
             periods[0],
             periods[periods.len() - 1]

@@ -316,6 +316,18 @@ pub struct Scene {
     pub figures: Vec<Figure>,
     /// The initial view.
     pub camera: Camera,
+    /// Moments marked on the timeline (a switch of the controls), in time order.
+    pub marks: Vec<Mark>,
+}
+
+/// A moment marked on a scene's timeline: a tick on the time slider, a
+/// button that jumps to it, and its label beside the clock from then on.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Mark {
+    /// When, seconds from the scene's start.
+    pub time_s: f64,
+    /// What happens then (`walk`).
+    pub label: String,
 }
 
 impl Scene {
@@ -355,7 +367,14 @@ impl Scene {
                 "the figures hold {total} coordinates, more than the {MAX_VALUES} a scene holds; show a shorter stretch"
             )));
         }
-        Ok(Scene { title: title.to_owned(), notes: Vec::new(), rate_hz, figures, camera: Camera::default() })
+        Ok(Scene {
+            title: title.to_owned(),
+            notes: Vec::new(),
+            rate_hz,
+            figures,
+            camera: Camera::default(),
+            marks: Vec::new(),
+        })
     }
 
     /// Frames on the timeline.
@@ -385,12 +404,14 @@ impl Scene {
             n_frames: usize,
             camera: Camera,
             figures: Vec<Fig<'a>>,
+            marks: &'a [Mark],
         }
         let data = Data {
             title: &self.title,
             rate_hz: self.rate_hz,
             n_frames: self.n_frames(),
             camera: self.camera,
+            marks: &self.marks,
             figures: self
                 .figures
                 .iter()

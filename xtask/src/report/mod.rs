@@ -52,6 +52,8 @@ pub enum Part {
     Families,
     /// The HOAP-2 walking in MuJoCo on its CPG (the Python package's simulator).
     Walking,
+    /// The whole body in one generator: standing, walking and running, judged on held-out trials.
+    WholeBody,
     /// Everything, with the table of what was tried.
     All,
 }
@@ -60,6 +62,12 @@ pub enum Part {
 fn is_walking(p: &Path) -> bool {
     Config::load(p)
         .is_ok_and(|c| c.experiment.is_some_and(|e| matches!(e.test, cpg_lab::config::ExperimentTest::Walking(_))))
+}
+
+/// Whether the configuration at `p` is the whole body's experiment.
+fn is_whole_body(p: &Path) -> bool {
+    Config::load(p)
+        .is_ok_and(|c| c.experiment.is_some_and(|e| matches!(e.test, cpg_lab::config::ExperimentTest::WholeBody(_))))
 }
 
 /// The reservoir experiments, in report order: every configuration of
@@ -174,7 +182,7 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
     if !args.configs.is_empty() || wants(Part::Reservoir) {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
         let paths: Vec<PathBuf> = if args.configs.is_empty() {
-            reservoir_experiments()?.into_iter().filter(|p| !is_walking(p)).collect()
+            reservoir_experiments()?.into_iter().filter(|p| !is_walking(p) && !is_whole_body(p)).collect()
         } else {
             let cwd = std::env::current_dir().context("the current directory")?;
             args.configs.iter().map(|p| if p.is_absolute() { p.clone() } else { cwd.join(p) }).collect()
@@ -225,6 +233,12 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
             eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
             times.push((rel(&p), t.elapsed().as_secs_f64()));
             main.push((rel(&p), o));
+        }
+    }
+    if wants(Part::WholeBody) {
+        for p in reservoir_experiments()?.into_iter().filter(|p| is_whole_body(p)) {
+            eprintln!("the whole body in one generator");
+            main.push((rel(&p), run_config(&p, opts, &mut times)?));
         }
     }
     let mut tried = Vec::new();
@@ -500,6 +514,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             "report/families"
         } else if args.experiment == Part::Walking {
             "report/walking"
+        } else if args.experiment == Part::WholeBody {
+            "report/whole-body"
         } else {
             "report"
         })

@@ -248,6 +248,16 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
                 test.push(Condition::Switch { at_s: half, ramp_s: w.stop_ramp_s });
             }
         }
+        ExperimentTest::WholeBody(b) => {
+            // The switching run's switches, and the stretches the long runs are judged on.
+            let mut clock = b.stay_s;
+            for _ in 1..b.sequence.len() {
+                test.push(Condition::Switch { at_s: round_to_step(clock, rate), ramp_s: b.ramp_s });
+                clock += b.ramp_s + b.stay_s;
+            }
+            test.push(Condition::Window { from_s: b.run_s - b.stand_s, to_s: b.run_s });
+            test.push(Condition::Window { from_s: b.run_s - crate::measure::WINDOW_S, to_s: b.run_s });
+        }
     }
     Ok(Conditions { validation, test })
 }

@@ -220,26 +220,14 @@ impl CouplingResult {
             ],
             verdict: self.verdict(),
         }];
-        let pens = col(&|s| s.model.penalty);
-        let sp = crate::stats::Spread::of(&pens);
-        self.table = vec![
-            Measure::spread(
-                "median per-joint NMSE of the last cycle, best phase",
-                &col(&|s| s.median_cycle_nmse),
-                "",
-                4,
-            ),
-            Measure::text(
-                "chosen penalty, lowest – highest",
-                format!("{} – {}", super::pen(sp.min), super::pen(sp.max)),
-            ),
-            Measure::count(
-                "seeds whose penalty sits at the grid's edge",
-                Proportion::count(self.seeds.iter().map(|s| s.model.penalty_at_edge)),
-            ),
-        ];
+        self.table = vec![Measure::spread(
+            "median per-joint NMSE of the last cycle, best phase",
+            &col(&|s| s.median_cycle_nmse),
+            "",
+            4,
+        )];
         let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
-        self.header.warnings = super::penalty_warnings(&models, &self.header);
+        self.table.extend(super::penalty_rows(&models, &mut self.header));
     }
 }
 

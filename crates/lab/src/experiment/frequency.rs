@@ -159,19 +159,9 @@ impl FrequencyResult {
             table.push(Measure::spread(format!("{at}: frequency / (u·f0)"), &fr, "", 3));
             table.push(Measure::spread(format!("{at}: amplitude / teacher's"), &am, "", 2));
         }
-        let pens: Vec<f64> = self.seeds.iter().map(|s| s.model.penalty).collect();
-        let sp = crate::stats::Spread::of(&pens);
-        table.push(Measure::text(
-            "chosen penalty, lowest – highest",
-            format!("{} – {}", super::pen(sp.min), super::pen(sp.max)),
-        ));
-        table.push(Measure::count(
-            "seeds whose penalty sits at the grid's edge",
-            Proportion::count(self.seeds.iter().map(|s| s.model.penalty_at_edge)),
-        ));
-        self.table = table;
         let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
-        self.header.warnings = super::penalty_warnings(&models, &self.header);
+        table.extend(super::penalty_rows(&models, &mut self.header));
+        self.table = table;
     }
 }
 

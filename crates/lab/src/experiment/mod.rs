@@ -2,6 +2,7 @@
 //! configuration's `[experiment]` table, returning typed results. The report
 //! (`cargo xtask evaluate`) renders them; nothing here prints.
 
+pub mod body;
 pub mod claim;
 pub mod conditions;
 pub mod coupling;
@@ -179,6 +180,22 @@ pub fn penalty_warnings(seeds: &[&SeedModel], h: &Header) -> Vec<String> {
     out
 }
 
+/// The rows every experiment's table ends with (the penalties its seeds
+/// chose, the lowest and highest, and how many sit at the grid's edge); the
+/// header's warnings about them are set on the way.
+pub(crate) fn penalty_rows(models: &[&SeedModel], header: &mut Header) -> [Measure; 2] {
+    let pens: Vec<f64> = models.iter().map(|m| m.penalty).collect();
+    let sp = crate::stats::Spread::of(&pens);
+    header.warnings = penalty_warnings(models, header);
+    [
+        Measure::text("chosen penalty, lowest – highest", format!("{} – {}", pen(sp.min), pen(sp.max))),
+        Measure::count(
+            "seeds whose penalty sits at the grid's edge",
+            crate::stats::Proportion::count(models.iter().map(|m| m.penalty_at_edge)),
+        ),
+    ]
+}
+
 /// A validation NMSE at least this large is about a constant output's (1).
 pub const CONSTANT_OUTPUT_NMSE: f64 = 0.95;
 
@@ -296,6 +313,8 @@ pub enum Outcome {
     Coupling(Box<coupling::CouplingResult>),
     /// Walking in physics.
     Walking(Box<walking::WalkingResult>),
+    /// The whole body in one generator.
+    WholeBody(Box<body::BodyResult>),
 }
 
 impl Outcome {
@@ -307,6 +326,7 @@ impl Outcome {
             Outcome::Gaits(r) => r.as_ref(),
             Outcome::Coupling(r) => r.as_ref(),
             Outcome::Walking(r) => r.as_ref(),
+            Outcome::WholeBody(r) => r.as_ref(),
         }
     }
 
@@ -359,6 +379,10 @@ impl Outcome {
                 )?,
                 Outcome::Walking(_) => walking::WalkingResult::section(
                     &pick(all, |x| if let Outcome::Walking(r) = x { Some(r.as_ref()) } else { None }),
+                    ctx,
+                )?,
+                Outcome::WholeBody(_) => body::BodyResult::section(
+                    &pick(all, |x| if let Outcome::WholeBody(r) = x { Some(r.as_ref()) } else { None }),
                     ctx,
                 )?,
             });
@@ -485,6 +509,7 @@ fn run_here(c: &Config, opts: Options, progress: &dyn Progress) -> Result<Outcom
         ExperimentTest::Frequency(f) => Outcome::Frequency(Box::new(frequency::run(c, f, opts, progress)?)),
         ExperimentTest::Gaits(g) => Outcome::Gaits(Box::new(gaits::run(c, g, opts, progress)?)),
         ExperimentTest::Coupling(k) => Outcome::Coupling(Box::new(coupling::run(c, k, opts, progress)?)),
+        ExperimentTest::WholeBody(b) => Outcome::WholeBody(Box::new(body::run(c, b, opts, progress)?)),
         ExperimentTest::Walking(_) => {
             return Err(c.error(
                 "experiment.test.walking",

@@ -240,25 +240,15 @@ impl StabilityResult {
                 self.e3_verdict(),
             ),
         ];
-        let pens: Vec<f64> = self.seeds.iter().map(|s| s.model.penalty).collect();
-        let sp = crate::stats::Spread::of(&pens);
         self.table = vec![
             Measure::count(
                 "seeds back on the unperturbed twin (in phase) for good",
                 crate::stats::Proportion::count(self.seeds.iter().map(|s| s.recovery.twin_s.is_some())),
             ),
             Measure::spread("time until back on the twin (seeds that are)", &twin, "s", 2),
-            Measure::text(
-                "chosen penalty, lowest – highest",
-                format!("{} – {}", super::pen(sp.min), super::pen(sp.max)),
-            ),
-            Measure::count(
-                "seeds whose penalty sits at the grid's edge",
-                crate::stats::Proportion::count(self.seeds.iter().map(|s| s.model.penalty_at_edge)),
-            ),
         ];
         let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
-        self.header.warnings = super::penalty_warnings(&models, &self.header);
+        self.table.extend(super::penalty_rows(&models, &mut self.header));
     }
 }
 

@@ -1,0 +1,969 @@
+//! The whole body in one generator: every rotation channel of a subject
+//! standing, walking and running, selected by control inputs, each gait
+//! judged against recorded trials that training never read, and the states
+//! switched in one free run.
+//!
+//! **Held-out cycles.** Each held-out trial's best seamless loop of one
+//! stride (found as training finds its loops, on the model's normalisation)
+//! is time-normalised to [`PHASES`] samples in the channels' own units
+//! (degrees). A generated cycle is the last period of the gait's free run,
+//! sampled the same way. The error of one cycle against another is the RMS
+//! over every channel and phase at the circular shift that makes it
+//! smallest; the held-out trials' **spread** is that error between every
+//! pair of them: what a new trial of the same person makes.
+
+mod section;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::claim::{Claim, Measure, Source, Verdict};
+use super::{Header, Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
+use crate::config::{Config, WholeBodySection};
+use crate::error::Result;
+use crate::measure::{RunSpec, STILL_SWING, WINDOW_S, column, free_runs, max_step, settle_on_orbit};
+use crate::schedule::ControlSchedule;
+use crate::stats::{Proportion, at_limit, median};
+use cpg_mocap::cycle::{best_loop, estimate_period, half_range};
+use cpg_reservoir::{Teacher, TrainedCpg};
+
+/// Largest relative error of a gait's period against the held-out trials' median.
+pub const PERIOD_TOLERANCE: f64 = 0.02;
+/// Largest relative error of a channel's amplitude against the held-out trials' median.
+pub const AMPLITUDE_TOLERANCE: f64 = 0.15;
+/// A switch settles within this many strides of the state it reaches (of
+/// the state it leaves when it reaches a posture).
+pub const SETTLE_STRIDES: f64 = 2.0;
+/// Samples of a time-normalised cycle.
+pub const PHASES: usize = 100;
+/// Fraction of the seeds that must pass everything.
+pub const SEED_FRACTION: f64 = 0.9;
+/// Largest distance from the posture while standing, degrees.
+pub const STAND_TOLERANCE_DEG: f64 = crate::measure::POSTURE_TOLERANCE;
+
+/// The rule of the whole body's verdict, as printed beside it.
+pub fn rule(b: &WholeBodySection) -> String {
+    format!(
+        "standing: every channel within {STAND_TOLERANCE_DEG}° of the posture and swinging less than {STILL_SWING}° over the last {} s of a {} s free run; each gait after {} s of free run (its last {WINDOW_S} s): period within {:.0} % of the held-out trials' median, every channel's amplitude (half range) within {:.0} % of theirs (a channel that never moves in them: below {STILL_SWING}°), the cycle's RMS error against the held-out trials (median over them) at most their spread (the median of their pairwise errors); every switch of the switching run on the orbit the generator keeps with the new inputs held within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials",
+        b.stand_s,
+        b.run_s,
+        b.run_s,
+        100.0 * PERIOD_TOLERANCE,
+        100.0 * AMPLITUDE_TOLERANCE
+    )
+}
+
+/// One held-out trial's stride.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOutTrial {
+    /// The file's name.
+    pub label: String,
+    /// Its period, frames.
+    pub period_frames: f64,
+    /// Each channel's half range over the loop, in its units.
+    pub amplitude: Vec<f64>,
+    /// The loop time-normalised (`PHASES × d`, the channels' units).
+    #[serde(skip)]
+    pub cycle: Vec<f64>,
+}
+
+/// The held-out trials of one gait.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOutGait {
+    /// The teacher they judge.
+    pub teacher: String,
+    /// The trials.
+    pub trials: Vec<HeldOutTrial>,
+    /// Their median period, frames.
+    pub period_frames: f64,
+    /// Each channel's median half range.
+    pub amplitude: Vec<f64>,
+    /// Each channel's smallest and largest half range over the trials, as a ratio to the median.
+    pub amplitude_range: Vec<(f64, f64)>,
+    /// The error of every pair of trials (RMS over channels and phases).
+    pub pair_errors: Vec<f64>,
+    /// Their median: the spread.
+    pub spread: f64,
+    /// Each channel's half range in the training teacher, in its units.
+    pub teacher_amplitude: Vec<f64>,
+    /// The training teacher judged as a generated cycle would be: channels
+    /// within the amplitude tolerance (what a perfect copy of the training
+    /// data scores: the yardstick for what the generator could reach).
+    pub teacher_within: usize,
+    /// Its cycle error against the held-out trials (median over them).
+    pub teacher_error: f64,
+    /// Per channel, the median over pairs of its RMS error at each pair's best shift.
+    pub channel_spread: Vec<f64>,
+}
+
+/// A gait of one seed, judged against its held-out trials.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BodyGait {
+    /// The teacher.
+    pub teacher: String,
+    /// The period of the end of the run, steps (`None`: no rhythm).
+    pub period_steps: Option<f64>,
+    /// The held-out trials' median period, steps.
+    pub held_out_period_steps: f64,
+    /// Each channel's half range over the last window, in its units.
+    pub amplitude: Vec<f64>,
+    /// Each channel's own period over the last window, steps (`None`: too still to say).
+    pub channel_period_steps: Vec<Option<f64>>,
+    /// The channel whose amplitude is furthest off, and its ratio to the held-out median.
+    pub worst_amplitude: (String, f64),
+    /// Channels within the amplitude tolerance.
+    pub amplitudes_within: usize,
+    /// The cycle's error against each held-out trial, in their order.
+    pub errors: Vec<f64>,
+    /// Their median.
+    pub error: f64,
+    /// Per channel, the median over the trials of its RMS error.
+    pub channel_error: Vec<f64>,
+    /// The period within its tolerance.
+    pub period_ok: bool,
+    /// Every amplitude within its tolerance.
+    pub amplitude_ok: bool,
+    /// The error at most the spread.
+    pub error_ok: bool,
+    /// All three.
+    pub passed: bool,
+    /// A comparison that decided it was closer than the report prints.
+    pub at_limit: bool,
+}
+
+/// The standing run of one seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BodyStand {
+    /// Largest distance of any channel from the posture over the judged stretch, degrees.
+    pub deviation: f64,
+    /// The channel that went furthest.
+    pub worst_channel: String,
+    /// Largest half range of any channel over the judged stretch, degrees.
+    pub swing: f64,
+    /// Within the tolerance and still.
+    pub passed: bool,
+    /// Decided by less than the printed digits.
+    pub at_limit: bool,
+}
+
+/// One switch of the switching run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BodySwitch {
+    /// The state left.
+    pub from: String,
+    /// The state reached.
+    pub to: String,
+    /// When the ramp starts, seconds.
+    pub at_s: f64,
+    /// Seconds from the ramp's end until back on the new state's orbit for good (`None`: never).
+    pub settle_s: Option<f64>,
+    /// The stride the settling is counted in, seconds.
+    pub stride_s: f64,
+    /// Largest frame-to-frame step from the switch to the next, normalised units.
+    pub max_step: f64,
+    /// The largest ratio of a channel's step to that channel's largest in the recorded training trials.
+    pub step_ratio: f64,
+    /// The channel of that ratio.
+    pub step_channel: String,
+    /// Settled within the strides, no step beyond the data's.
+    pub passed: bool,
+    /// Decided by less than the printed digits.
+    pub at_limit: bool,
+}
+
+/// One seed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BodySeed {
+    /// How the model was trained.
+    pub model: SeedModel,
+    /// Standing.
+    pub stand: BodyStand,
+    /// Each judged gait.
+    pub gaits: Vec<BodyGait>,
+    /// Each switch.
+    pub switches: Vec<BodySwitch>,
+    /// Everything held.
+    pub passed: bool,
+    /// A comparison that decided it was closer than the report prints.
+    pub at_limit: bool,
+}
+
+/// The whole body over seeds.
+#[derive(Debug, Clone, Serialize)]
+pub struct BodyResult {
+    /// What was run.
+    pub header: Header,
+    /// The test's settings.
+    pub test: WholeBodySection,
+    /// The channels, in the model's order.
+    pub channels: Vec<String>,
+    /// The teachers' labels, in the model's order.
+    pub teachers: Vec<String>,
+    /// The held-out trials of each judged gait.
+    pub held_out: Vec<HeldOutGait>,
+    /// The largest frame-to-frame step in the teachers' cycles (each round its seam), normalised units.
+    pub data_step: f64,
+    /// The largest in the recorded training trials.
+    pub recorded_step: f64,
+    /// Seconds the training of every seed took, on the run's threads.
+    pub train_wall_s: f64,
+    /// Threads it ran on.
+    pub threads: usize,
+    /// Free-run length of each state, seconds.
+    pub run_s: f64,
+    /// Each channel's largest frame-to-frame step in the recorded training trials, normalised units.
+    pub data_steps: Vec<f64>,
+    /// When each switch of the switching run starts, seconds.
+    pub switch_at_s: Vec<f64>,
+    /// Per seed.
+    pub seeds: Vec<BodySeed>,
+    /// The claims, measured.
+    pub claims: Vec<Claim>,
+    /// The section's other aggregates.
+    pub table: Vec<Measure>,
+    /// Every seed's switching run, the left femur's channel in its units, for the figure.
+    #[serde(skip)]
+    pub switch_runs: Vec<Vec<f64>>,
+    /// The first seed's switching run as a scene for `cpg_view`.
+    #[serde(skip)]
+    pub view: Option<cpg_view::Scene>,
+}
+
+/// `cycle` (`p × d`, any `p ≥ 1`) sampled at [`PHASES`] evenly spaced phases.
+fn time_normalised(cycle: &[f64], d: usize) -> Vec<f64> {
+    let p = cycle.len() / d;
+    let mut out = Vec::with_capacity(PHASES * d);
+    for k in 0..PHASES {
+        let pos = k as f64 * p as f64 / PHASES as f64;
+        let (i, f) = (pos.floor() as usize % p, pos.fract());
+        let j = (i + 1) % p;
+        out.extend((0..d).map(|c| (1.0 - f) * cycle[i * d + c] + f * cycle[j * d + c]));
+    }
+    out
+}
+
+/// The last `period` steps of `y` (`T × d`; a fractional period) sampled at [`PHASES`] phases.
+fn last_cycle(y: &[f64], d: usize, period: f64) -> Vec<f64> {
+    let t = y.len() / d;
+    let start = (t - 1) as f64 - period;
+    let mut out = Vec::with_capacity(PHASES * d);
+    for k in 0..PHASES {
+        let pos = (start + k as f64 * period / PHASES as f64).max(0.0);
+        let (i, f) = (pos.floor() as usize, pos.fract());
+        let j = (i + 1).min(t - 1);
+        out.extend((0..d).map(|c| (1.0 - f) * y[i * d + c] + f * y[j * d + c]));
+    }
+    out
+}
+
+/// The error of cycle `a` against cycle `b` (both `PHASES × d`) at the
+/// circular shift that makes it smallest: the RMS over every channel and
+/// phase, and each channel's RMS at that shift.
+fn cycle_error(a: &[f64], b: &[f64], d: usize) -> (f64, Vec<f64>) {
+    let sq = |s: usize, c: usize| -> f64 {
+        (0..PHASES).map(|k| (a[k * d + c] - b[((k + s) % PHASES) * d + c]).powi(2)).sum()
+    };
+    let best = (0..PHASES)
+        .map(|s| (s, (0..d).map(|c| sq(s, c)).sum::<f64>()))
+        .fold((0, f64::INFINITY), |m, x| if x.1 < m.1 { x } else { m });
+    let total = (best.1 / (PHASES * d) as f64).sqrt();
+    (total, (0..d).map(|c| (sq(best.0, c) / PHASES as f64).sqrt()).collect())
+}
+
+/// Each held-out trial of `h`'s gait read, its stride cut and time-normalised.
+fn held_out(c: &Config, h: &crate::config::HeldOutSection, m: &TrainedCpg, k: usize) -> Result<HeldOutGait> {
+    let d = m.outputs.len();
+    let rate = c.data.rate_hz;
+    let skeleton = c
+        .data
+        .skeleton
+        .as_ref()
+        .ok_or_else(|| c.error("data.skeleton", "is needed to read the held-out trials (AMC)"))?;
+    let bytes = cpg_mocap::read_bounded(skeleton, cpg_mocap::MAX_INPUT_BYTES)?;
+    let sk = cpg_mocap::parse_asf(&skeleton.display().to_string(), &bytes).map_err(cpg_mocap::Error::from)?;
+    let names: Vec<&str> = m.outputs.iter().map(|o| o.name.as_str()).collect();
+    let period_channel = match &c.data.period_channel {
+        Some(n) => Some(
+            names
+                .iter()
+                .position(|x| x == n)
+                .ok_or_else(|| c.error("data.period_channel", format!("'{n}' is not one of the learnt channels")))?,
+        ),
+        None => None,
+    };
+    let lo = (c.data.period_s[0] * rate).round() as usize;
+    let hi = (c.data.period_s[1] * rate).round() as usize;
+    let mut trials = Vec::with_capacity(h.motions.len());
+    for (i, path) in h.motions.iter().enumerate() {
+        let key = format!("experiment.test.whole_body.held_out[{k}].motions[{i}]");
+        let motion = cpg_mocap::Motion::from_amc_file(path, &sk, rate)?.select(&names)?;
+        let units = motion.values();
+        let z: Vec<f64> =
+            units.chunks_exact(d).flat_map(|f| f.iter().zip(&m.outputs).map(|(v, o)| (v - o.mean) / o.std)).collect();
+        let (p, _, _) = crate::prepare::gait_period(&z, d, lo, hi, period_channel).ok_or_else(|| {
+            c.error(
+                &key,
+                format!("{}: no rhythm between {} and {} s", path.display(), c.data.period_s[0], c.data.period_s[1]),
+            )
+        })?;
+        let lp = best_loop(&z, d, p, 1)
+            .ok_or_else(|| c.error(&key, format!("{}: one cycle of {p:.1} frames does not fit", path.display())))?;
+        let cycle = &units[lp.start * d..(lp.start + lp.len) * d];
+        trials.push(HeldOutTrial {
+            label: path.file_name().map_or_else(|| path.display().to_string(), |f| f.to_string_lossy().into_owned()),
+            period_frames: p,
+            amplitude: (0..d).map(|ch| half_range(&column(cycle, d, ch))).collect(),
+            cycle: time_normalised(cycle, d),
+        });
+    }
+    let amplitude: Vec<f64> =
+        (0..d).map(|ch| median(&trials.iter().map(|t| t.amplitude[ch]).collect::<Vec<_>>())).collect();
+    let amplitude_range = (0..d)
+        .map(|ch| {
+            let r: Vec<f64> = trials.iter().map(|t| t.amplitude[ch] / amplitude[ch]).collect();
+            (r.iter().copied().fold(f64::INFINITY, f64::min), r.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+        })
+        .collect();
+    let mut pair_errors = Vec::new();
+    let mut per_channel: Vec<Vec<f64>> = vec![Vec::new(); d];
+    for i in 0..trials.len() {
+        for j in i + 1..trials.len() {
+            let (e, ch) = cycle_error(&trials[i].cycle, &trials[j].cycle, d);
+            pair_errors.push(e);
+            ch.into_iter().zip(&mut per_channel).for_each(|(v, p)| p.push(v));
+        }
+    }
+    Ok(HeldOutGait {
+        teacher: h.teacher.clone(),
+        period_frames: median(&trials.iter().map(|t| t.period_frames).collect::<Vec<_>>()),
+        amplitude,
+        amplitude_range,
+        spread: median(&pair_errors),
+        teacher_amplitude: Vec::new(),
+        teacher_within: 0,
+        teacher_error: f64::NAN,
+        channel_spread: per_channel.iter().map(|v| median(v)).collect(),
+        pair_errors,
+        trials,
+    })
+}
+
+/// Whether a held-out channel never moves (its median half range below [`STILL_SWING`]).
+fn still(amplitude: f64) -> bool {
+    amplitude < STILL_SWING
+}
+
+/// Judges the end of a gait's free run `y` (normalised) against its held-out trials.
+fn judge_gait(m: &TrainedCpg, y: &[f64], h: &HeldOutGait, reference: usize, rate: f64) -> BodyGait {
+    let d = m.outputs.len();
+    let t = y.len() / d;
+    let win = ((WINDOW_S * rate) as usize).max((3.0 * h.period_frames).ceil() as usize).min(t);
+    let units = cpg_reservoir::to_units(&m.outputs, &y[(t - win) * d..]);
+    let p = h.period_frames;
+    let (lo, hi) = (((p / 2.0).floor() as usize).max(2), ((2.0 * p).ceil() as usize).min(win / 2));
+    let amplitude: Vec<f64> = (0..d).map(|c| half_range(&column(&units, d, c))).collect();
+    let channel_period_steps: Vec<Option<f64>> = (0..d)
+        .map(|c| {
+            if still(h.amplitude[c]) || still(amplitude[c]) {
+                None
+            } else {
+                estimate_period(&column(&units, d, c), lo, hi)
+            }
+        })
+        .collect();
+    let period_steps = channel_period_steps[reference];
+    let ratios: Vec<f64> = (0..d).map(|c| amplitude[c] / h.amplitude[c]).collect();
+    let ok_channel = |c: usize| {
+        if still(h.amplitude[c]) { amplitude[c] < STILL_SWING } else { (ratios[c] - 1.0).abs() < AMPLITUDE_TOLERANCE }
+    };
+    let worst = (0..d)
+        .filter(|&c| !still(h.amplitude[c]))
+        .max_by(|&a, &b| (ratios[a] - 1.0).abs().total_cmp(&(ratios[b] - 1.0).abs()));
+    let worst_amplitude = worst.map_or((String::new(), 1.0), |c| (m.outputs[c].name.clone(), ratios[c]));
+    let (errors, per_channel): (Vec<f64>, Vec<Vec<f64>>) = match period_steps {
+        Some(ps) => {
+            let cycle = last_cycle(&units, d, ps);
+            h.trials.iter().map(|tr| cycle_error(&cycle, &tr.cycle, d)).unzip()
+        }
+        None => (vec![f64::INFINITY; h.trials.len()], vec![vec![f64::INFINITY; d]; h.trials.len()]),
+    };
+    let error = median(&errors);
+    let error = if errors.iter().all(|e| e.is_finite()) { error } else { f64::INFINITY };
+    let channel_error = (0..d).map(|c| median(&per_channel.iter().map(|v| v[c]).collect::<Vec<_>>())).collect();
+    let period_err = period_steps.map(|q| (q / p - 1.0).abs());
+    let period_ok = period_err.is_some_and(|e| e < PERIOD_TOLERANCE);
+    let amplitudes_within = (0..d).filter(|&c| ok_channel(c)).count();
+    let amplitude_ok = amplitudes_within == d;
+    let error_ok = error <= h.spread;
+    let parts = [
+        (period_ok, period_err.is_some_and(|e| at_limit(e, PERIOD_TOLERANCE, 3))),
+        (
+            amplitude_ok,
+            (0..d)
+                .filter(|&c| !still(h.amplitude[c]))
+                .any(|c| at_limit((ratios[c] - 1.0).abs(), AMPLITUDE_TOLERANCE, 2)),
+        ),
+        (error_ok, at_limit(error, h.spread, 2)),
+    ];
+    let (passed, at_limit) = combine(&parts);
+    BodyGait {
+        teacher: h.teacher.clone(),
+        period_steps,
+        held_out_period_steps: p,
+        amplitude,
+        channel_period_steps,
+        worst_amplitude,
+        amplitudes_within,
+        errors,
+        error,
+        channel_error,
+        period_ok,
+        amplitude_ok,
+        error_ok,
+        passed,
+        at_limit,
+    }
+}
+
+/// Whether every part held, and whether parts decided by a hair could change that.
+fn combine(parts: &[(bool, bool)]) -> (bool, bool) {
+    let passed = parts.iter().all(|p| p.0);
+    let fragile = if passed { parts.iter().any(|p| p.1) } else { parts.iter().filter(|p| !p.0).all(|p| p.1) };
+    (passed, fragile)
+}
+
+/// The orbit a free run `y` (normalised) ends on at a teacher's inputs: its
+/// last frame for a posture, its last period (measured on `reference`, from
+/// half to twice the teacher's) for a rhythm; `None` when it shows none.
+fn own_orbit(y: &[f64], d: usize, t: &Teacher, reference: usize) -> Option<Vec<f64>> {
+    let n = y.len() / d;
+    if n == 0 {
+        return None;
+    }
+    if t.is_posture(d) {
+        return Some(y[(n - 1) * d..].to_vec());
+    }
+    let p = t.period_steps(d);
+    let win = ((4.0 * p).ceil() as usize).min(n);
+    let col = column(&y[(n - win) * d..], d, reference);
+    let q = estimate_period(&col, ((p / 2.0).floor() as usize).max(2), ((2.0 * p).ceil() as usize).min(win / 2))?;
+    let len = (q.round() as usize).clamp(2, n);
+    Some(y[(n - len) * d..].to_vec())
+}
+
+/// Judges the end of the standing run `y` (normalised) against the posture `t`.
+fn judge_stand(m: &TrainedCpg, y: &[f64], t: &Teacher, stand_s: f64, rate: f64) -> BodyStand {
+    let d = m.outputs.len();
+    let steps = y.len() / d;
+    let n = ((stand_s * rate).round() as usize).clamp(1, steps);
+    let last = &y[(steps - n) * d..];
+    let dev: Vec<f64> = (0..d)
+        .map(|c| {
+            let s = m.outputs[c].std;
+            column(last, d, c)
+                .iter()
+                .map(|v| (v - t.cycle[c]).abs() * s)
+                .fold(0.0, |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) })
+        })
+        .collect();
+    let swing = (0..d).map(|c| half_range(&column(last, d, c)) * m.outputs[c].std).fold(0.0, f64::max);
+    let worst = (0..d).max_by(|&a, &b| dev[a].total_cmp(&dev[b])).unwrap_or(0);
+    let deviation = dev[worst];
+    let parts = [
+        (deviation <= STAND_TOLERANCE_DEG, at_limit(deviation, STAND_TOLERANCE_DEG, 2)),
+        (swing < STILL_SWING, at_limit(swing, STILL_SWING, 3)),
+    ];
+    let (passed, at_limit) = combine(&parts);
+    BodyStand { deviation, worst_channel: m.outputs[worst].name.clone(), swing, passed, at_limit }
+}
+
+/// The switching run's schedule: each state of `sequence` held `stay_s`, cosine ramps of `ramp_s` between them;
+/// with when each switch starts.
+fn switching(teachers: &[Teacher], b: &WholeBodySection) -> (ControlSchedule, Vec<f64>, f64) {
+    let mut knots = Vec::new();
+    let mut at = Vec::new();
+    let mut clock = 0.0;
+    for (i, &k) in b.sequence.iter().enumerate() {
+        let u = teachers[k].controls.clone();
+        if i > 0 {
+            at.push(clock);
+            clock += b.ramp_s;
+        }
+        knots.push((clock, u.clone()));
+        clock += b.stay_s;
+        knots.push((clock, u));
+    }
+    (ControlSchedule::Knots(knots), at, clock)
+}
+
+/// Each channel's largest frame-to-frame step in `y` (`T × d`).
+fn channel_steps(y: &[f64], d: usize) -> Vec<f64> {
+    let frames: Vec<&[f64]> = y.chunks_exact(d).collect();
+    (0..d).map(|c| frames.windows(2).fold(0.0, |m: f64, w| m.max((w[1][c] - w[0][c]).abs()))).collect()
+}
+
+/// The larger of `a` and `b`, element by element.
+fn widest(a: Vec<f64>, b: Vec<f64>) -> Vec<f64> {
+    a.iter().zip(&b).map(|(x, y)| x.max(*y)).collect()
+}
+
+/// Which teacher stands and which the held-out gaits judge; an error names the key.
+fn roles(c: &Config, b: &WholeBodySection, teachers: &[Teacher], d: usize) -> Result<(usize, Vec<usize>)> {
+    if let Some(&k) = b.sequence.iter().find(|&&k| k >= teachers.len()) {
+        return Err(
+            c.error("experiment.test.whole_body.sequence", format!("names teacher {k}; there are {}", teachers.len()))
+        );
+    }
+    let stand = teachers
+        .iter()
+        .position(|t| t.is_posture(d))
+        .ok_or_else(|| c.error("data.segments", "the whole body's test needs a standing posture (stand = true)"))?;
+    let mut gait_index = Vec::new();
+    for (k, h) in b.held_out.iter().enumerate() {
+        let i = teachers.iter().position(|t| t.label == h.teacher && !t.is_posture(d)).ok_or_else(|| {
+            c.error(
+                &format!("experiment.test.whole_body.held_out[{k}].teacher"),
+                format!(
+                    "'{}' is not a rhythm the model learns; its teachers are {}",
+                    h.teacher,
+                    teachers.iter().map(|t| t.label.as_str()).collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })?;
+        gait_index.push(i);
+    }
+    Ok((stand, gait_index))
+}
+
+/// The training teacher judged as a generated cycle would be (in `h`'s fields).
+fn judge_teacher(h: &mut HeldOutGait, t: &Teacher, outputs: &[cpg_reservoir::OutputChannel]) {
+    let d = outputs.len();
+    let units = cpg_reservoir::to_units(outputs, &t.cycle);
+    h.teacher_amplitude = (0..d).map(|c| half_range(&column(&units, d, c))).collect();
+    h.teacher_within = (0..d)
+        .filter(|&c| {
+            if still(h.amplitude[c]) {
+                h.teacher_amplitude[c] < STILL_SWING
+            } else {
+                (h.teacher_amplitude[c] / h.amplitude[c] - 1.0).abs() < AMPLITUDE_TOLERANCE
+            }
+        })
+        .count();
+    let cycle = time_normalised(&units, d);
+    h.teacher_error = median(&h.trials.iter().map(|tr| cycle_error(&cycle, &tr.cycle, d).0).collect::<Vec<_>>());
+}
+
+/// Everything judging one seed needs: the teachers' roles, the held-out
+/// gaits, the yardsticks, the runs' schedules and lengths.
+struct Test<'a> {
+    b: &'a WholeBodySection,
+    teachers: &'a [Teacher],
+    stand: usize,
+    gait_index: Vec<usize>,
+    held: Vec<HeldOutGait>,
+    reference: usize,
+    /// Each channel's largest step in the recorded training trials.
+    data_steps: Vec<f64>,
+    rate: f64,
+    d: usize,
+    run_s: f64,
+    steps: usize,
+    constant: Vec<ControlSchedule>,
+    schedule: ControlSchedule,
+    switch_at_s: Vec<f64>,
+    switch_len_s: f64,
+    switch_steps: usize,
+}
+
+impl Test<'_> {
+    /// The step at `s` seconds of the switching run.
+    fn at(&self, s: f64) -> usize {
+        ((s * self.rate).round() as usize).min(self.switch_steps)
+    }
+
+    /// Seed `seed`'s model run and judged; with its switching run (normalised).
+    fn judge(&self, m: &TrainedCpg, seed: u64) -> Result<(BodySeed, Vec<f64>)> {
+        let (b, d, rate) = (self.b, self.d, self.rate);
+        let mut specs: Vec<RunSpec<'_>> = self
+            .constant
+            .iter()
+            .map(|s| RunSpec { model: m, controls: s, steps: self.steps, push: None, noise: None })
+            .collect();
+        specs.push(RunSpec { model: m, controls: &self.schedule, steps: self.switch_steps, push: None, noise: None });
+        let mut ys = free_runs(&specs, 1)?;
+        let sw = ys.pop().unwrap_or_default();
+        let stand = judge_stand(m, &ys[self.stand], &self.teachers[self.stand], b.stand_s.min(self.run_s), rate);
+        let gaits: Vec<BodyGait> = self
+            .held
+            .iter()
+            .zip(&self.gait_index)
+            .map(|(h, &k)| judge_gait(m, &ys[k], h, self.reference, rate))
+            .collect();
+        // Each state's own orbit: where the generator settles with those inputs held.
+        let orbits: Vec<Option<Vec<f64>>> =
+            self.teachers.iter().zip(&ys).map(|(t, y)| own_orbit(y, d, t, self.reference)).collect();
+        let switches: Vec<BodySwitch> = (0..self.switch_at_s.len()).map(|s| self.switch(m, &sw, &orbits, s)).collect();
+        let mut parts = vec![(stand.passed, stand.at_limit)];
+        parts.extend(gaits.iter().map(|g| (g.passed, g.at_limit)));
+        parts.extend(switches.iter().map(|s| (s.passed, s.at_limit)));
+        let (passed, at_limit) = combine(&parts);
+        Ok((BodySeed { model: SeedModel::of(m, seed), stand, gaits, switches, passed, at_limit }, sw))
+    }
+
+    /// Switch `s` of the switching run `sw` judged: settling onto the
+    /// generator's own orbit of the state reached, and the steps.
+    fn switch(&self, m: &TrainedCpg, sw: &[f64], orbits: &[Option<Vec<f64>>], s: usize) -> BodySwitch {
+        let (b, d, rate, teachers) = (self.b, self.d, self.rate, self.teachers);
+        let (from, to) = (b.sequence[s], b.sequence[s + 1]);
+        let start = self.switch_at_s[s];
+        let end = self.switch_at_s.get(s + 1).copied().unwrap_or(self.switch_len_s);
+        let to_t = &teachers[to];
+        let stride_steps = if to_t.is_posture(d) { teachers[from].period_steps(d) } else { to_t.period_steps(d) };
+        let stride_s = stride_steps / rate;
+        let settle_s = orbits[to]
+            .as_ref()
+            .and_then(|o| settle_on_orbit(&sw[..self.at(end) * d], d, o, self.at(start + b.ramp_s), rate));
+        let window = &sw[self.at(start) * d..self.at(end) * d];
+        let steps_c = channel_steps(window, d);
+        let (step_channel, step_ratio) = (0..d)
+            .filter(|&c| self.data_steps[c] > 1e-9)
+            .map(|c| (c, steps_c[c] / self.data_steps[c]))
+            .fold((0, 0.0), |w, x| if x.1 > w.1 { x } else { w });
+        let limit = SETTLE_STRIDES * stride_s;
+        let parts = [
+            (settle_s.is_some_and(|v| v <= limit), settle_s.is_some_and(|v| at_limit(v, limit, 2))),
+            (step_ratio <= 1.0, at_limit(step_ratio, 1.0, 2)),
+        ];
+        let (passed, fragile) = combine(&parts);
+        BodySwitch {
+            from: teachers[from].label.clone(),
+            to: to_t.label.clone(),
+            at_s: start,
+            settle_s,
+            stride_s,
+            max_step: max_step(window, d),
+            step_ratio,
+            step_channel: m.outputs[step_channel].name.clone(),
+            passed,
+            at_limit: fragile,
+        }
+    }
+
+    /// The states on the switching run's timeline: the first from the start,
+    /// each next from its ramp's start ("to walk") and end ("walk").
+    fn marks(&self) -> Vec<cpg_view::Mark> {
+        let label = |k: usize| self.teachers[k].label.clone();
+        std::iter::once(cpg_view::Mark { time_s: 0.0, label: label(self.b.sequence[0]) })
+            .chain(self.switch_at_s.iter().zip(&self.b.sequence[1..]).flat_map(|(&t, &k)| {
+                [
+                    cpg_view::Mark { time_s: t, label: format!("to {}", label(k)) },
+                    cpg_view::Mark { time_s: t + self.b.ramp_s, label: label(k) },
+                ]
+            }))
+            .collect()
+    }
+}
+
+/// Runs the whole body's test on configuration `c`.
+pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progress) -> Result<BodyResult> {
+    let seeds = seeds(c, opts)?;
+    let t0 = std::time::Instant::now();
+    let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
+    let train_wall_s = t0.elapsed().as_secs_f64();
+    let rate = c.data.rate_hz;
+    let teachers = &prep.teachers;
+    let d = prep.outputs.len();
+    let first = &models[0];
+    let (stand, gait_index) = roles(c, b, teachers, d)?;
+    progress.start("reading the held-out trials", b.held_out.len() as u64);
+    let mut held = Vec::with_capacity(b.held_out.len());
+    for (k, (h, &i)) in b.held_out.iter().zip(&gait_index).enumerate() {
+        let mut g = held_out(c, h, first, k)?;
+        judge_teacher(&mut g, &teachers[i], &prep.outputs);
+        held.push(g);
+        progress.tick();
+    }
+    progress.finish();
+    let reference =
+        c.data.period_channel.as_ref().and_then(|n| prep.outputs.iter().position(|o| &o.name == n)).unwrap_or(0);
+    // Each channel's largest step in the recorded training trials (the
+    // data), and in the teachers' cycles, each tiled once round its seam (the
+    // motion the generator learnt, averaged and smoother).
+    let tiled = |t: &Teacher| {
+        let p = t.cycle.len() / d;
+        (0..=p).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
+    };
+    let teacher_steps = teachers.iter().map(|t| channel_steps(&tiled(t), d)).fold(vec![0.0; d], widest);
+    let data_steps = prep.segments.iter().map(|s| channel_steps(s, d)).fold(vec![0.0; d], widest);
+    let run_s = if opts.quick { b.quick_run_s } else { b.run_s };
+    let (schedule, switch_at_s, switch_len_s) = switching(teachers, b);
+    let test = Test {
+        b,
+        teachers,
+        stand,
+        gait_index,
+        held,
+        reference,
+        data_steps,
+        rate,
+        d,
+        run_s,
+        steps: (run_s * rate).round() as usize,
+        constant: teachers.iter().map(|t| ControlSchedule::Constant(t.controls.clone())).collect(),
+        schedule,
+        switch_at_s,
+        switch_len_s,
+        switch_steps: (switch_len_s * rate).round() as usize,
+    };
+    let robot = match &b.robot {
+        Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
+        None => None,
+    };
+    progress.start("free runs", seeds.len() as u64);
+    type SeedOut = (BodySeed, Vec<f64>, Option<cpg_view::Scene>);
+    let per_seed: Result<Vec<SeedOut>> = seeds
+        .par_iter()
+        .zip(&models)
+        .enumerate()
+        .map(|(i, (&seed, m))| {
+            let (judged, sw) = test.judge(m, seed)?;
+            let units = cpg_reservoir::to_units(&m.outputs, &sw);
+            let view = if i == 0 {
+                let robot = robot.as_ref().map(|(r, map)| crate::scene::RobotView {
+                    robot: r,
+                    map,
+                    acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+                });
+                let mut scene = crate::scene::run_scene(&super::view_title(c), m, &test.schedule, 0, &units, robot)?;
+                scene.marks = test.marks();
+                Some(scene)
+            } else {
+                None
+            };
+            progress.tick();
+            Ok((judged, column(&units, d, reference), view))
+        })
+        .collect();
+    progress.finish();
+    let per_seed = per_seed?;
+    let Test { held, data_steps, switch_at_s, .. } = test;
+    let mut r = BodyResult {
+        header: header(c, &prep, first.reservoir.n_neurons())?,
+        test: b.clone(),
+        channels: prep.outputs.iter().map(|o| o.name.clone()).collect(),
+        teachers: teachers.iter().map(|t| t.label.clone()).collect(),
+        held_out: held,
+        data_step: teacher_steps.iter().copied().fold(0.0, f64::max),
+        recorded_step: data_steps.iter().copied().fold(0.0, f64::max),
+        data_steps,
+        train_wall_s,
+        threads: opts.threads,
+        run_s,
+        switch_at_s,
+        view: per_seed.iter().find_map(|s| s.2.clone()),
+        switch_runs: per_seed.iter().map(|s| s.1.clone()).collect(),
+        seeds: per_seed.into_iter().map(|s| s.0).collect(),
+        claims: Vec::new(),
+        table: Vec::new(),
+    };
+    r.summarise();
+    Ok(r)
+}
+
+/// What the target is, in words (this experiment goes beyond the papers).
+fn beyond(text: &str) -> Vec<Source> {
+    vec![Source::Inferred {
+        text: format!("beyond the paper (its E5 switches one channel, its E6 holds 22 of one gait): {text}"),
+    }]
+}
+
+impl BodyResult {
+    /// The verdict over seeds.
+    pub fn verdict(&self) -> Verdict {
+        let j: Vec<Judged> = self.seeds.iter().map(|s| Judged { passed: s.passed, at_limit: s.at_limit }).collect();
+        verdict_over(&j, SEED_FRACTION, format!("at least 90 % of the seeds pass: {}", rule(&self.test)))
+    }
+
+    fn part_verdict(&self, f: impl Fn(&BodySeed) -> (bool, bool), rule: String) -> Verdict {
+        let j: Vec<Judged> = self
+            .seeds
+            .iter()
+            .map(|s| {
+                let (passed, at_limit) = f(s);
+                Judged { passed, at_limit }
+            })
+            .collect();
+        verdict_over(&j, SEED_FRACTION, rule)
+    }
+
+    /// Fills the claims and the table from the seeds.
+    pub fn summarise(&mut self) {
+        let h = &self.header;
+        let differs: Vec<String> = h.differs.iter().map(|d| d.describe()).collect();
+        let col = |f: &dyn Fn(&BodySeed) -> f64| self.seeds.iter().map(f).collect::<Vec<f64>>();
+        let count = |f: &dyn Fn(&BodySeed) -> bool| Proportion::count(self.seeds.iter().map(f));
+        let claim = |claim: String, text: &str, measured: Vec<Measure>, verdict: Verdict| Claim {
+            experiment: h.id.clone(),
+            claim,
+            sources: beyond(text),
+            protocol: h.protocol.to_string(),
+            differs: differs.clone(),
+            measured,
+            verdict,
+        };
+        let mut claims = vec![claim(
+            "stands still in one posture".to_owned(),
+            "standing is a fixed point of the generator, not a slow cycle",
+            vec![
+                Measure::count("seeds within 1° and still", count(&|s| s.stand.passed)),
+                Measure::spread(format!("largest distance from the posture, last {} s", self.test.stand_s), &col(&|s| s.stand.deviation), "°", 2),
+                Measure::spread("largest swing of a channel", &col(&|s| s.stand.swing), "°", 3),
+            ],
+            self.part_verdict(
+                |s| (s.stand.passed, s.stand.at_limit),
+                format!("at least 90 % of the seeds: every channel within {STAND_TOLERANCE_DEG}° of the posture and swinging less than {STILL_SWING}° over the last {} s of a {} s free run", self.test.stand_s, self.run_s),
+            ),
+        )];
+        for (k, g) in self.held_out.iter().enumerate() {
+            let gait = |s: &BodySeed| s.gaits[k].clone();
+            let ratio = |s: &BodySeed| gait(s).period_steps.map_or(f64::NAN, |p| p / g.period_frames);
+            claims.push(claim(
+                format!("{} like trials it never saw", g.teacher),
+                "each gait judged on held-out trials of the same person",
+                vec![
+                    Measure::count("seeds passing period, every amplitude and cycle error", count(&|s| s.gaits[k].passed)),
+                    Measure::spread(format!("period / the held-out median ({:.1} frames)", g.period_frames), &col(&ratio), "", 3),
+                    Measure::count("seeds with every amplitude within 15 %", count(&|s| s.gaits[k].amplitude_ok)),
+                    Measure::spread("channels within 15 %", &col(&|s| s.gaits[k].amplitudes_within as f64), &format!("of {}", self.channels.len()), 0),
+                    Measure::number("the same for the training teacher itself", g.teacher_within as f64, &format!("of {}", self.channels.len()), 0),
+                    Measure::spread("cycle error against the held-out trials", &col(&|s| s.gaits[k].error), "°", 2),
+                    Measure::number("the same for the training teacher itself", g.teacher_error, "°", 2),
+                    Measure::number(format!("the held-out trials' spread ({} trials)", g.trials.len()), g.spread, "°", 2),
+                ],
+                self.part_verdict(
+                    |s| (s.gaits[k].passed, s.gaits[k].at_limit),
+                    format!("at least 90 % of the seeds: after {} s of free run, the period within {:.0} % of the held-out trials' median, every channel's amplitude within {:.0} % of theirs, the cycle's error at most their spread", self.run_s, 100.0 * PERIOD_TOLERANCE, 100.0 * AMPLITUDE_TOLERANCE),
+                ),
+            ));
+        }
+        let n_sw = self.switch_at_s.len();
+        let settle_strides: Vec<f64> = self
+            .seeds
+            .iter()
+            .flat_map(|s| s.switches.iter().map(|w| w.settle_s.map_or(f64::NAN, |v| v / w.stride_s)))
+            .collect();
+        claims.push(claim(
+            "switches between standing, walking and running".to_owned(),
+            "stand → walk → run → walk → stand in one free run, by two inputs",
+            vec![
+                Measure::count(format!("seeds passing all {n_sw} switches"), count(&|s| s.switches.iter().all(|w| w.passed))),
+                Measure::spread("settling after the ramp (every switch that settles)", &settle_strides, "strides", 2),
+                Measure::spread("largest step after a switch, over the channel's largest in the recorded training trials", &col(&|s| s.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max)), "", 2),
+            ],
+            self.part_verdict(
+                |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),
+                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials", self.test.ramp_s, self.test.stay_s),
+            ),
+        ));
+        claims.push(claim(
+            "the whole body in one generator".to_owned(),
+            "≥ 9 of 10 seeds pass every per-gait check and every switch",
+            vec![
+                Measure::count("seeds passing everything", count(&|s| s.passed)),
+                Measure::number(
+                    format!("training, {} seeds on {} threads", self.seeds.len(), self.threads),
+                    self.train_wall_s,
+                    "s",
+                    1,
+                ),
+            ],
+            self.verdict(),
+        ));
+        self.claims = claims;
+        let models: Vec<&SeedModel> = self.seeds.iter().map(|s| &s.model).collect();
+        self.table = super::penalty_rows(&models, &mut self.header).to_vec();
+    }
+}
+
+impl super::Experiment for BodyResult {
+    fn figure(&self) -> &'static str {
+        "beyond the paper"
+    }
+    super::common_accessors!();
+    fn passed(&self) -> (usize, usize) {
+        (self.seeds.iter().filter(|s| s.passed).count(), self.seeds.len())
+    }
+    fn target(&self) -> &'static str {
+        "stands, walks and runs like held-out trials, and switches"
+    }
+    fn section(all: &[&Self], ctx: &super::doc::Context) -> Result<super::doc::Section> {
+        let mut s = super::doc::Section::default();
+        section::body(&mut s, all, ctx);
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cycle_against_itself_shifted_has_no_error_and_a_scaled_one_does() {
+        let d = 2;
+        let cycle: Vec<f64> = (0..80)
+            .flat_map(|k| {
+                let x = k as f64 * std::f64::consts::TAU / 80.0;
+                [10.0 * x.sin(), 3.0 * (2.0 * x).cos()]
+            })
+            .collect();
+        let a = time_normalised(&cycle, d);
+        let shifted: Vec<f64> =
+            (0..80).flat_map(|k| cycle[((k + 20) % 80) * d..((k + 20) % 80 + 1) * d].to_vec()).collect();
+        let (e, per) = cycle_error(&a, &time_normalised(&shifted, d), d);
+        assert!(e < 1e-9 && per.iter().all(|v| *v < 1e-9), "{e} {per:?}");
+        let scaled: Vec<f64> = cycle.iter().enumerate().map(|(i, v)| if i % 2 == 0 { 1.1 * v } else { *v }).collect();
+        let (e, per) = cycle_error(&a, &time_normalised(&scaled, d), d);
+        // Channel 0 is 10 sin off by 10 %: an RMS of 1/√2; channel 1 is exact.
+        assert!((per[0] - 0.5f64.sqrt()).abs() < 1e-3 && per[1] < 1e-9, "{per:?}");
+        assert!((e - 0.5).abs() < 1e-3, "{e}");
+    }
+
+    #[test]
+    fn the_last_cycle_of_a_run_is_its_last_period_at_a_fractional_length() {
+        // A sine of period 37.5 steps: the last cycle sampled at 100 phases is a whole sine.
+        let p = 37.5;
+        let y: Vec<f64> = (0..1000).map(|k| (k as f64 * std::f64::consts::TAU / p).sin()).collect();
+        let c = last_cycle(&y, 1, p);
+        let reference: Vec<f64> = (0..PHASES)
+            .map(|k| ((999.0 - p + k as f64 * p / PHASES as f64) * std::f64::consts::TAU / p).sin())
+            .collect();
+        let (e, _) = cycle_error(&c, &reference, 1);
+        assert!(e < 2e-3, "{e}");
+    }
+
+    #[test]
+    fn a_switching_run_holds_each_state_and_ramps_between() {
+        let t = |u: [f64; 2]| Teacher { label: String::new(), controls: u.to_vec(), cycle: vec![0.0], rate: 1.0 };
+        let teachers = [t([0.0, 0.0]), t([1.0, 0.0]), t([0.0, 1.0])];
+        let b = WholeBodySection {
+            run_s: 900.0,
+            quick_run_s: 90.0,
+            stand_s: 60.0,
+            held_out: Vec::new(),
+            sequence: vec![0, 1, 2, 1, 0],
+            stay_s: 20.0,
+            ramp_s: 1.0,
+            robot: None,
+        };
+        let (s, at, len) = switching(&teachers, &b);
+        assert_eq!(at, [20.0, 41.0, 62.0, 83.0]);
+        assert_eq!(len, 104.0);
+        let mut u = [0.0; 2];
+        s.fill((30.0 * 120.0) as usize, 120.0, &mut u);
+        assert_eq!(u, [1.0, 0.0]);
+        s.fill((50.0 * 120.0) as usize, 120.0, &mut u);
+        assert_eq!(u, [0.0, 1.0]);
+        s.fill((41.5 * 120.0) as usize, 120.0, &mut u);
+        assert!((u[0] - 0.5).abs() < 1e-9 && (u[1] - 0.5).abs() < 1e-9, "{u:?}");
+    }
+}

@@ -1,0 +1,252 @@
+//! The report's section of the whole body, built from the results alone.
+
+use super::*;
+use crate::experiment::doc::*;
+use crate::experiment::pen;
+
+/// What one recurrent network was shown to hold before, as published (the
+/// channels, units and motions of each; neither reports a long run's
+/// stability, a standing state or trials held out of training).
+const PUBLISHED: [[&str; 7]; 2] = [
+    [
+        "Sussillo & Abbott (2009, Neuron 63:544), FORCE learning",
+        "95 joint angles (CMU)",
+        "5,000",
+        "walking and running, switched by constant inputs",
+        "not reported",
+        "not reported",
+        "none",
+    ],
+    [
+        "Jaeger (2014), conceptors",
+        "61 (CMU)",
+        "600 leaky units",
+        "15 motions, morphed between",
+        "not reported",
+        "not reported",
+        "none",
+    ],
+];
+
+/// The whole body.
+pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
+    let Some(r) = rs.first() else { return };
+    opening(s, rs, ctx);
+    let n = r.seeds.len();
+    let t = &r.test;
+    s.line(format!(
+        "The generator learns {} channels ({}) and {} states ({}), selected by its control inputs. Each gait is judged against trials training never read:",
+        r.channels.len(),
+        r.channels.first().map_or(String::new(), |f| format!("{f} … {}", r.channels.last().unwrap_or(f))),
+        r.teachers.len(),
+        r.teachers.join(", ")
+    ));
+    s.blank();
+    for g in &r.held_out {
+        let periods: Vec<String> =
+            g.trials.iter().map(|t| format!("{} ({:.1} frames)", t.label, t.period_frames)).collect();
+        let pe = crate::stats::Spread::of(&g.pair_errors);
+        s.line(format!(
+            "- {}: {}; median period {:.1} frames; their spread (the RMS error of one trial's time-normalised cycle against another's, over every channel and phase, at the best phase) {:.2}° (median of {} pairs; {:.2}–{:.2}°).",
+            g.teacher,
+            periods.join(", "),
+            g.period_frames,
+            g.spread,
+            pe.n,
+            pe.min,
+            pe.max
+        ));
+    }
+    s.blank();
+    let sequence: Vec<&str> = t.sequence.iter().map(|&k| r.teachers.get(k).map_or("?", String::as_str)).collect();
+    s.line(format!(
+        "Test, for each of {n} seeds: each state's inputs held for a free run of {} s (standing judged over its last {} s, each gait over its last {WINDOW_S} s); and one free run through {} (each state held {} s, switches by {}-s cosine ramps of the inputs starting at {} s).",
+        r.run_s,
+        t.stand_s,
+        sequence.join(" → "),
+        t.stay_s,
+        t.ramp_s,
+        r.switch_at_s.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(", ")
+    ));
+    s.blank();
+    s.line("What one recurrent network was shown to hold before, as published, beside this run:");
+    s.blank();
+    let mut rows: Vec<Vec<String>> = PUBLISHED.iter().map(|r| r.iter().map(|c| (*c).to_owned()).collect()).collect();
+    let all = |f: &dyn Fn(&BodySeed) -> bool| r.seeds.iter().filter(|s| f(s)).count();
+    rows.push(vec![
+        format!("this run ({})", ctx.path(&r.header.config)),
+        format!("{} rotations of subject 35", r.channels.len()),
+        r.header.n_neurons.to_string(),
+        format!("{}, switched by two inputs", r.teachers.join(", ")),
+        format!(
+            "{} of {n} seeds stand still; gaits after {} s: every gait passes in {} of {n}",
+            all(&|s| s.stand.passed),
+            r.run_s,
+            all(&|s| s.gaits.iter().all(|g| g.passed))
+        ),
+        format!("{} of {n} seeds pass every switch", all(&|s| s.switches.iter().all(|w| w.passed))),
+        r.held_out.iter().map(|g| format!("{}: {} trials", g.teacher, g.trials.len())).collect::<Vec<_>>().join("; "),
+    ]);
+    s.table(
+        &["network", "channels", "units", "motions", "long-run stability, standing", "switches", "trials held out"],
+        "lllllll",
+        &rows,
+    );
+    view(
+        s,
+        r.view.as_ref(),
+        "whole_body_view",
+        &protocol_name(&r.header),
+        &format!(
+            "the first seed's switching run ({}; switches at {} s)",
+            sequence.join(" → "),
+            r.switch_at_s.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(", ")
+        ),
+        None,
+    );
+    claims_side_by_side(s, rs);
+    switch_runs(s, r);
+    per_seed(s, r);
+    for (k, g) in r.held_out.iter().enumerate() {
+        per_channel(s, r, k, g);
+    }
+    validation_curves(s, rs, "fig_validation_whole_body");
+}
+
+fn per_seed(s: &mut Section, r: &BodyResult) {
+    let mut head = vec!["seed".to_owned(), "penalty".to_owned(), "standing: distance, swing".to_owned()];
+    head.extend(
+        r.held_out.iter().map(|g| format!("{}: period / held-out, channels within, error / spread", g.teacher)),
+    );
+    head.push("switches: settled (strides); largest step / the data's".into());
+    head.push("passed".into());
+    let rows: Vec<Vec<String>> = r
+        .seeds
+        .iter()
+        .map(|sd| {
+            let mut v = vec![
+                sd.model.seed.to_string(),
+                pen(sd.model.penalty),
+                format!(
+                    "{:.2}°, {:.3}°{}",
+                    sd.stand.deviation,
+                    sd.stand.swing,
+                    if sd.stand.passed { "" } else { " ✗" }
+                ),
+            ];
+            for (g, h) in sd.gaits.iter().zip(&r.held_out) {
+                v.push(format!(
+                    "{}, {} of {}, {:.2}° / {:.2}°{}",
+                    g.period_steps.map_or("no rhythm".into(), |p| format!("{:.3}", p / h.period_frames)),
+                    g.amplitudes_within,
+                    g.amplitude.len(),
+                    g.error,
+                    h.spread,
+                    if g.passed { "" } else { " ✗" }
+                ));
+            }
+            v.push(format!(
+                "{}; {:.2}{}",
+                sd.switches
+                    .iter()
+                    .map(|w| w.settle_s.map_or("never".into(), |x| format!("{:.2}", x / w.stride_s)))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                sd.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max),
+                if sd.switches.iter().all(|w| w.passed) { "" } else { " ✗" }
+            ));
+            v.push(format!("{}{}", yes(sd.passed), if sd.at_limit { " (at the limit)" } else { "" }));
+            v
+        })
+        .collect();
+    s.line(format!(
+        "Per seed (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3})):",
+        r.data_steps.iter().copied().filter(|v| *v > 1e-9).fold(f64::INFINITY, f64::min),
+        r.recorded_step,
+        r.data_step
+    ));
+    s.blank();
+    let head: Vec<&str> = head.iter().map(String::as_str).collect();
+    s.table(&head, &format!("rr{}", "r".repeat(head.len() - 2)), &rows);
+}
+
+fn per_channel(s: &mut Section, r: &BodyResult, k: usize, g: &HeldOutGait) {
+    let Some(first) = r.seeds.first() else { return };
+    let Some(made) = first.gaits.get(k) else { return };
+    let rows: Vec<Vec<String>> = r
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let (lo, hi) = g.amplitude_range[c];
+            let moving = g.amplitude[c] >= STILL_SWING;
+            vec![
+                format!("`{name}`"),
+                if moving { format!("{:.2} ({:.2}–{:.2})", g.amplitude[c], lo, hi) } else { "still".into() },
+                format!("{:.2}", g.teacher_amplitude.get(c).copied().unwrap_or(f64::NAN)),
+                format!("{:.2}", made.amplitude[c]),
+                if moving {
+                    let q = made.amplitude[c] / g.amplitude[c];
+                    format!("{q:.2}{}", if (q - 1.0).abs() < AMPLITUDE_TOLERANCE { "" } else { " ✗" })
+                } else {
+                    (if made.amplitude[c] < STILL_SWING { "still" } else { "moves ✗" }).to_owned()
+                },
+                made.channel_period_steps[c].map_or("—".into(), |p| format!("{p:.1}")),
+                format!("{:.2}", made.channel_error[c]),
+                format!("{:.2}", g.channel_spread[c]),
+            ]
+        })
+        .collect();
+    s.line(format!(
+        "Every channel while {} (seed {}, the last {WINDOW_S} s of {} s): half ranges in degrees (the held-out trials' median, and their smallest and largest as a ratio to it; the training teacher's; the generator's, and its ratio to the held-out median), the channel's own period in frames (the held-out median: {:.1}), and its RMS error against the held-out trials (median over them) beside the held-out trials' own (median over pairs):",
+        g.teacher, first.model.seed, r.run_s, g.period_frames
+    ));
+    s.blank();
+    s.table(
+        &[
+            "channel",
+            "held-out half range (ratio range)",
+            "training teacher",
+            "generated",
+            "ratio",
+            "period",
+            "error",
+            "held-out spread",
+        ],
+        "lrrrrrrr",
+        &rows,
+    );
+}
+
+fn switch_runs(s: &mut Section, r: &BodyResult) {
+    let rate = 120.0;
+    let channel =
+        r.header.cycles.iter().find(|c| !c.period_channel.is_empty()).map_or("", |c| c.period_channel.as_str());
+    let mut panels = Vec::new();
+    for (k, y) in r.switch_runs.iter().enumerate() {
+        let (lo, hi) = y.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        let band = |t: f64| {
+            Curve::new(
+                Look::Control,
+                "",
+                vec![(t, lo), (t, hi), (t + r.test.ramp_s, hi), (t + r.test.ramp_s, lo), (t, lo)],
+            )
+        };
+        let mut curves: Vec<Curve> = r.switch_at_s.iter().map(|&t| band(t)).collect();
+        curves.push(Curve::new(Look::Model, "", pts(y, 0.0, rate)));
+        panels.push(Panel {
+            equal_axes: false,
+            title: format!("seed {}", r.seeds.get(k).map_or(0, |s| s.model.seed)),
+            x_label: "time (s)".into(),
+            y_label: format!("{channel} (°)"),
+            curves,
+        });
+    }
+    if panels.is_empty() {
+        return;
+    }
+    let rows = panels.len().div_ceil(2) as u32;
+    s.figure("fig_whole_body_switches", panels, 2, (1300, 170 * rows));
+    s.line("![Every seed's switching run (the period channel; gray bands: the ramps of the inputs)](fig_whole_body_switches.png)");
+    s.blank();
+}
