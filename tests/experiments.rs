@@ -295,7 +295,7 @@ fn an_experiment_gives_the_same_bits_on_one_and_two_threads() {
 }
 
 /// The whole body in one generator (`experiments/whole-body.toml`) at its
-/// quick size: 59 channels, the trials of each gait averaged into one
+/// quick size: 62 channels (the horizontal translation as velocities), the trials of each gait averaged into one
 /// teacher, six channels that never move held as constants; the held-out
 /// trials read and compared among themselves; after 90 s of free run each
 /// gait keeps the held-out trials' period and comes as close to them as
@@ -303,7 +303,8 @@ fn an_experiment_gives_the_same_bits_on_one_and_two_threads() {
 #[test]
 fn the_whole_body_walks_and_runs_like_trials_it_never_saw() {
     let Outcome::WholeBody(r) = quick("whole-body") else { panic!("whole-body is a whole_body experiment") };
-    assert_eq!(r.channels.len(), 59);
+    assert_eq!(r.channels.len(), 62);
+    assert!(r.channels.iter().any(|c| c == "root.tz/s"), "the walking direction is learnt as a velocity");
     assert_eq!(r.teachers, ["stand", "walk", "run"]);
     assert!(r.header.notes.iter().any(|n| n.starts_with("6 channel(s) never move")), "{:?}", r.header.notes);
     let trials: Vec<usize> = r.held_out.iter().map(|g| g.trials.len()).collect();

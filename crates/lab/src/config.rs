@@ -90,6 +90,10 @@ pub struct DataSection {
     pub period_s: [f64; 2],
     /// The channel whose rhythm sets the period (default: the most regular one).
     pub period_channel: Option<String>,
+    /// Channels (of `channels`) learnt as their rate of change per second,
+    /// integrated back on output (`root.tz`: the figure travels).
+    #[serde(default)]
+    pub velocity: Vec<String>,
     /// Largest seam excess of a loop (in standard deviations) accepted.
     #[serde(default = "default_seam")]
     pub max_seam_excess: f64,

@@ -172,7 +172,7 @@ pub fn write_run(path: &Path, format: Format, m: &TrainedCpg, run: &Run, skeleto
         Format::Csv => save(path, |w| {
             write!(w, "time_s")?;
             for o in &m.outputs {
-                write!(w, ",{}{}", o.name, unit_suffix(&o.name))?;
+                write!(w, ",{}{}", o.unit_name(), unit_suffix(o.unit_name()))?;
             }
             writeln!(w)?;
             for k in 0..run.steps {
@@ -193,7 +193,7 @@ pub fn write_run(path: &Path, format: Format, m: &TrainedCpg, run: &Run, skeleto
                 .outputs
                 .iter()
                 .map(|o| {
-                    Channel::parse(&o.name).ok_or_else(|| {
+                    Channel::parse(o.unit_name()).ok_or_else(|| {
                         Error::name(&o.name, format!("output '{}' is not a mocap channel (bone.dof)", o.name))
                     })
                 })

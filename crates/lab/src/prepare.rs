@@ -326,6 +326,31 @@ fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded
     Ok(Recorded { skeleton: None, parts })
 }
 
+/// `m` with the channels at indices `rates` replaced by their rate of change
+/// per second (central differences, one-sided at the ends): what a channel of
+/// `data.velocity` is learnt as.
+pub fn as_rates(m: &Motion, rates: &[usize]) -> Result<Motion> {
+    if rates.is_empty() {
+        return Ok(m.clone());
+    }
+    let d = m.channels().len();
+    let t = m.n_frames();
+    let rate = m.sample_rate_hz();
+    let x = m.values();
+    let mut v = x.to_vec();
+    if t >= 2 {
+        for &c in rates {
+            for k in 0..t {
+                let (a, b) = (k.saturating_sub(1), (k + 1).min(t - 1));
+                v[k * d + c] = (x[b * d + c] - x[a * d + c]) * rate / (b - a) as f64;
+            }
+        }
+    } else {
+        rates.iter().for_each(|&c| v[c] = 0.0);
+    }
+    Ok(Motion::new(m.channels().to_vec(), v, rate)?)
+}
+
 /// The motions of a configuration, with the channels selected and normalised.
 struct Read {
     channels: Vec<String>,
@@ -349,7 +374,17 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
         Some((sk, _)) => crate::channels::all_channels(sk),
         None => rec.parts.first().map(Motion::channel_names).unwrap_or_default(),
     };
-    let channels = crate::channels::expand_in(&d_sec.channels, &all).map_err(|m| c.error("data.channels", m))?;
+    let mut channels = crate::channels::expand_in(&d_sec.channels, &all).map_err(|m| c.error("data.channels", m))?;
+    let mut rates = Vec::with_capacity(d_sec.velocity.len());
+    for n in &d_sec.velocity {
+        let k = channels.iter().position(|x| x == n).ok_or_else(|| {
+            c.error("data.velocity", format!("'{n}' is not one of the learnt channels (data.channels)"))
+        })?;
+        if rates.contains(&k) {
+            return Err(c.error("data.velocity", format!("names '{n}' twice")));
+        }
+        rates.push(k);
+    }
     let names: Vec<&str> = channels.iter().map(String::as_str).collect();
     let mut parts = Vec::with_capacity(rec.parts.len());
     for (k, m) in rec.parts.iter().enumerate() {
@@ -361,7 +396,10 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
                 d_sec.rate_hz
             )));
         }
-        parts.push(m.select(&names)?);
+        parts.push(as_rates(&m.select(&names)?, &rates)?);
+    }
+    for &k in &rates {
+        channels[k].push_str(cpg_reservoir::VELOCITY_SUFFIX);
     }
     let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
     let (z, still) = ZScore::fit_holding_still(&all);
@@ -407,7 +445,16 @@ fn loops(
         let t = m.n_frames();
         if d_sec.segments[k].stand {
             // A posture: one frame, the mean of the segment's.
-            let pose: Vec<f64> = (0..d).map(|c| column(&x, d, c).iter().sum::<f64>() / t.max(1) as f64).collect();
+            // A posture does not travel: a rate channel holds still at 0.
+            let pose: Vec<f64> = (0..d)
+                .map(|c| {
+                    if r.channels[c].ends_with(cpg_reservoir::VELOCITY_SUFFIX) {
+                        -r.z.mean[c] / r.z.std[c]
+                    } else {
+                        column(&x, d, c).iter().sum::<f64>() / t.max(1) as f64
+                    }
+                })
+                .collect();
             loops.push(pose);
             cycles.push(SegmentCycle {
                 label: label.clone(),
@@ -945,6 +992,21 @@ sequence = [0, 1, 0]
 [output]
 model = "m.cpg"
 "#;
+
+    #[test]
+    fn a_velocity_channel_is_its_rate_per_second() {
+        // x grows 0.5 per frame at 10 Hz: 5 per second, at the ends too; y is kept.
+        let ch = |s: &str| Channel::parse(s).unwrap();
+        let values: Vec<f64> = (0..6).flat_map(|k| [0.5 * k as f64, k as f64 * k as f64]).collect();
+        let m = Motion::new(vec![ch("root.tz"), ch("root.ty")], values.clone(), 10.0).unwrap();
+        let r = as_rates(&m, &[0]).unwrap();
+        let v = r.values();
+        assert!((0..6).all(|k| (v[2 * k] - 5.0).abs() < 1e-12), "{v:?}");
+        assert_eq!(
+            (0..6).map(|k| v[2 * k + 1]).collect::<Vec<_>>(),
+            (0..6).map(|k| values[2 * k + 1]).collect::<Vec<_>>()
+        );
+    }
 
     #[test]
     fn a_group_of_trials_is_one_teacher_and_a_still_channel_is_held() {

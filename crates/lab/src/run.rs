@@ -161,10 +161,11 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
         let spec = RunSpec { model: m, controls, steps, push: None, noise: None };
         let mut y = free_runs_on(&[spec], opts.threads)?.pop().unwrap_or_else(|| Ok(Vec::new()))?;
         cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
+        cpg_reservoir::integrate_in_place(&m.outputs, &mut y, rate_hz);
         y
     } else {
         // One thread, step by step (the same bits as a batched run, in units:
-        // the generator de-normalises), checking the flag.
+        // the generator de-normalises and integrates rates), checking the flag.
         let cancel = opts.cancel.unwrap_or(&NEVER);
         let mut g = Generator::new(m);
         let mut u = vec![0.0; m.controls.len()];
@@ -226,6 +227,10 @@ pub fn range_warnings(m: &TrainedCpg, y: &[f64]) -> Vec<RangeWarning> {
     let d = m.outputs.len();
     let mut out = Vec::new();
     for (k, o) in m.outputs.iter().enumerate() {
+        if o.integrates().is_some() {
+            // Taught as a rate, generated as the position it integrates to.
+            continue;
+        }
         let taught = m.teachers.iter().flat_map(|t| t.cycle.iter().skip(k).step_by(d)).map(|z| o.to_units(*z));
         let (lo, hi) = taught.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
         let (min, max) =

@@ -43,12 +43,14 @@ pub fn model_scene(
 ) -> Result<Scene> {
     let mut y = free_run(m, controls, n_steps, None)?;
     cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
+    cpg_reservoir::integrate_in_place(&m.outputs, &mut y, m.provenance.sample_rate_hz);
     run_scene(title, m, controls, 0, &y, robot)
 }
 
 /// [`model_scene`] of a run already made: `y_units` holds the model's
-/// outputs in their own units (degrees), frame-major, from step `first_step`
-/// of `controls` on.
+/// outputs in their own units (degrees; rates integrated, as
+/// [`cpg_reservoir::integrate_in_place`] does), frame-major, from step
+/// `first_step` of `controls` on.
 pub fn run_scene(
     title: &str,
     m: &TrainedCpg,
@@ -69,7 +71,7 @@ pub fn run_scene(
         .outputs
         .iter()
         .map(|o| {
-            Channel::parse(&o.name)
+            Channel::parse(o.unit_name())
                 .ok_or_else(|| Error::name(&o.name, format!("output '{}' is not a mocap channel", o.name)))
         })
         .collect::<Result<_>>()?;
@@ -89,6 +91,7 @@ pub fn run_scene(
             let p = teacher.cycle.len() / d;
             t.extend(teacher.cycle[(k % p) * d..(k % p + 1) * d].iter().zip(&m.outputs).map(|(z, o)| o.to_units(*z)));
         }
+        cpg_reservoir::integrate_in_place(&m.outputs, &mut t, rate);
         let labels: Vec<&str> = m.teachers.iter().map(|t| t.label.as_str()).collect();
         figures.push(
             human(&sk, &channels, t, rate, "teacher")?
@@ -102,7 +105,7 @@ pub fn run_scene(
     )));
     if let Some(r) = robot {
         // Channels of the map the model does not generate are 0, as in the human figures.
-        let mut names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+        let mut names: Vec<String> = m.outputs.iter().map(|o| o.unit_name().to_owned()).collect();
         let driven = r.map.entries.iter().filter(|e| names.contains(&e.channel)).count();
         if driven > 0 {
             let missing: Vec<String> =

@@ -64,7 +64,7 @@ impl Ticker {
                         r.acceleration_rad_s2
                     )));
                 }
-                let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+                let names: Vec<String> = m.outputs.iter().map(|o| o.unit_name().to_owned()).collect();
                 let plan = r.map.plan(r.robot, &names)?;
                 let dt = 1.0 / rate_hz;
                 let limiters = plan.joints.iter().map(|j| Limiter::new(j.bounds(r.acceleration_rad_s2), dt)).collect();
@@ -165,7 +165,7 @@ pub fn joint_trajectory(
     rate_hz: Option<f64>,
     target: RobotTarget<'_>,
 ) -> Result<cpg_hoap2::JointTrajectory> {
-    let names: Vec<String> = m.outputs.iter().map(|o| o.name.clone()).collect();
+    let names: Vec<String> = m.outputs.iter().map(|o| o.unit_name().to_owned()).collect();
     let missing: Vec<&str> = target.map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
     if !missing.is_empty() {
         return Err(Error::name(

@@ -80,7 +80,7 @@ impl Model {
     /// The output channels, in column order.
     #[getter]
     fn channels(&self) -> Vec<String> {
-        self.m.outputs.iter().map(|o| o.name.clone()).collect()
+        self.m.outputs.iter().map(|o| o.unit_name().to_owned()).collect()
     }
 
     /// The control inputs' names.

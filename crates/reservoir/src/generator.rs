@@ -100,7 +100,9 @@ enum Inner {
 ///
 /// Each [`step`](Generator::step) reads the output from the state, feeds it
 /// back, and advances the state; it allocates nothing. Outputs come back in
-/// the units of the training data (the normalisation is undone), controls go
+/// the units of the training data (the normalisation is undone; a channel
+/// learnt as its rate, [`VELOCITY_SUFFIX`](crate::VELOCITY_SUFFIX), integrated
+/// from 0 at the first step, or at the first step after a resume), controls go
 /// in as they were given in training. A non-finite control is rejected before
 /// it touches the state; a non-finite state or output becomes
 /// [`Error::Diverged`], and the generator refuses to continue until it is reset.
@@ -110,6 +112,9 @@ pub struct Generator {
     outputs: Vec<OutputChannel>,
     normalised: Vec<f64>,
     out: Vec<f64>,
+    /// The integrated channels' positions (rates' channels, `VELOCITY_SUFFIX`), from 0.
+    position: Vec<f64>,
+    rate_hz: f64,
     n_controls: usize,
     steps: u64,
     noise: Option<(ChaCha8Rng, f64)>,
@@ -129,6 +134,8 @@ impl Generator {
             outputs: model.outputs.clone(),
             normalised: vec![0.0; d],
             out: vec![0.0; d],
+            position: vec![0.0; d],
+            rate_hz: model.provenance.sample_rate_hz,
             n_controls: model.controls.len(),
             steps: 0,
             noise: None,
@@ -233,8 +240,12 @@ impl Generator {
             self.diverged = true;
             return Err(Error::Diverged { what: "state or output", step: self.steps });
         }
-        for ((o, v), ch) in self.out.iter_mut().zip(&self.normalised).zip(&self.outputs) {
+        for (((o, v), ch), p) in self.out.iter_mut().zip(&self.normalised).zip(&self.outputs).zip(&mut self.position) {
             *o = ch.to_units(*v);
+            if ch.integrates().is_some() {
+                *p += *o / self.rate_hz;
+                *o = *p;
+            }
         }
         Ok(&self.out)
     }

@@ -50,7 +50,7 @@ pub use error::{ConfigError, Error, Result};
 pub use generator::Generator;
 pub use model::{
     FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,
-    TrainedCpg, check_name, to_units, to_units_in_place,
+    TrainedCpg, VELOCITY_SUFFIX, check_name, integrate_in_place, to_units, to_units_in_place,
 };
 pub use orbit::{OrbitStay, STILL_VARIANCE, orbit_nmse};
 pub use real::Real;

@@ -110,7 +110,26 @@ pub struct OutputChannel {
     pub std: f64,
 }
 
+/// The suffix of a channel learnt as its rate of change: `root.tz/s` is the
+/// root's z translation per second. What a model generates in units is
+/// integrated back into the channel itself (`root.tz`), from 0 at the first
+/// step, so that a figure travels ([`Generator`](crate::Generator),
+/// [`integrate_in_place`]); normalised outputs stay rates.
+pub const VELOCITY_SUFFIX: &str = "/s";
+
 impl OutputChannel {
+    /// The channel this one's rate integrates into (`root.tz` for
+    /// `root.tz/s`), or `None` for a channel learnt as it is.
+    pub fn integrates(&self) -> Option<&str> {
+        self.name.strip_suffix(VELOCITY_SUFFIX)
+    }
+
+    /// The name of what the model generates for this channel in units: the
+    /// integrated channel for a rate, else the channel's own name.
+    pub fn unit_name(&self) -> &str {
+        self.integrates().unwrap_or(&self.name)
+    }
+
     /// A normalised value `z` in this channel's units: `z · std + mean`
     /// (the one de-normalisation; a multiply and an add, never fused, so
     /// every caller gets the same bits).
@@ -127,6 +146,28 @@ pub fn to_units_in_place(outputs: &[OutputChannel], y: &mut [f64]) {
     for (k, v) in y.iter_mut().enumerate() {
         if let Some(o) = outputs.get(k % d) {
             *v = o.to_units(*v);
+        }
+    }
+}
+
+/// Frame-major values in units (`frames × outputs.len()`, from
+/// [`to_units_in_place`]) with every rate channel ([`VELOCITY_SUFFIX`])
+/// integrated in place at `rate_hz`, from 0: position(k) = position(k − 1) +
+/// rate(k) / rate_hz, as the [`Generator`](crate::Generator) integrates step
+/// by step (the same bits).
+pub fn integrate_in_place(outputs: &[OutputChannel], y: &mut [f64], rate_hz: f64) {
+    let d = outputs.len();
+    if d == 0 {
+        return;
+    }
+    for (c, o) in outputs.iter().enumerate() {
+        if o.integrates().is_none() {
+            continue;
+        }
+        let mut position = 0.0;
+        for v in y.iter_mut().skip(c).step_by(d) {
+            position += *v / rate_hz;
+            *v = position;
         }
     }
 }

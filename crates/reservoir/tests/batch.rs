@@ -243,3 +243,32 @@ fn a_configuration_without_a_parameter_takes_the_papers_value() {
     let e = serde_json::from_str::<ReservoirConfig>(r#"{"n_neuron": 50}"#).unwrap_err().to_string();
     assert!(e.contains("unknown field `n_neuron`"), "{e}");
 }
+
+/// A channel learnt as its rate (`sine/s`) comes out of the generator
+/// integrated, step by step, with the same bits as a batched run's outputs
+/// de-normalised and integrated afterwards; the normalised outputs stay rates.
+#[test]
+fn a_rate_channel_is_integrated_the_same_by_the_generator_and_after_a_run() {
+    let mut m = model(60, 3, Precision::F64, |_| {});
+    m.outputs[0] = OutputChannel { name: format!("root.tz{VELOCITY_SUFFIX}"), mean: 2.0, std: 0.5 };
+    assert_eq!(m.outputs[0].integrates(), Some("root.tz"));
+    assert_eq!(m.outputs[0].unit_name(), "root.tz");
+    let steps = 300;
+    let run = Run { model: &m, controls: &Ramp, steps, hold: None, noise: None };
+    let mut batched = free_runs(&[run], 1).pop().unwrap().unwrap();
+    let normalised = stepped(&run).unwrap();
+    assert!(same(&batched, &normalised), "normalised outputs are the rates, batched or stepped");
+    to_units_in_place(&m.outputs, &mut batched);
+    integrate_in_place(&m.outputs, &mut batched, 120.0);
+    let mut g = Generator::new(&m);
+    let mut u = [0.0];
+    let integrated: Vec<f64> = (0..steps)
+        .map(|k| {
+            Ramp.fill(k, &mut u);
+            g.step(&u).unwrap()[0]
+        })
+        .collect();
+    assert!(same(&batched, &integrated), "the generator integrates as integrate_in_place does");
+    // A mean rate of 2 units/s for 2.5 s travels about 5 units.
+    assert!((integrated[steps - 1] - 5.0).abs() < 1.0, "{}", integrated[steps - 1]);
+}

@@ -183,7 +183,7 @@ pub fn generate(
     let run = run_units(&m, &controls, n)?;
     cpg_lab::format::write_run(output, format, &m, &run, sk.as_ref())?;
     if format == Format::Npy {
-        let names: Vec<&str> = m.outputs.iter().map(|o| o.name.as_str()).collect();
+        let names: Vec<&str> = m.outputs.iter().map(|o| o.unit_name()).collect();
         eprintln!("columns: {} (degrees for rotation channels)", names.join(", "));
     }
     eprintln!("wrote {n} frames ({seconds} s at {rate} Hz) of {d} channel(s) as {format} to {}", dest.describe());

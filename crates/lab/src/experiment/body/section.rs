@@ -114,11 +114,11 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
 }
 
 fn per_seed(s: &mut Section, r: &BodyResult) {
-    let mut head = vec!["seed".to_owned(), "penalty".to_owned(), "standing: distance, swing".to_owned()];
+    let mut head = vec!["seed".to_owned(), "penalty".to_owned(), "standing: distance, swing, travel".to_owned()];
     head.extend(
         r.held_out.iter().map(|g| format!("{}: period / held-out, channels within, error / spread", g.teacher)),
     );
-    head.push("switches: settled (strides); largest step / the data's".into());
+    head.push("switches: settled (strides); largest step / the data's; foot slide".into());
     head.push("passed".into());
     let rows: Vec<Vec<String>> = r
         .seeds
@@ -128,9 +128,10 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
                 sd.model.seed.to_string(),
                 pen(sd.model.penalty),
                 format!(
-                    "{:.2}°, {:.3}°{}",
+                    "{:.2}°, {:.3}°, {:.0} mm{}",
                     sd.stand.deviation,
                     sd.stand.swing,
+                    sd.stand.travel_mm,
                     if sd.stand.passed { "" } else { " ✗" }
                 ),
             ];
@@ -146,13 +147,14 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
                 ));
             }
             v.push(format!(
-                "{}; {:.2}{}",
+                "{}; {:.2}; {:.0} mm{}",
                 sd.switches
                     .iter()
                     .map(|w| w.settle_s.map_or("never".into(), |x| format!("{:.2}", x / w.stride_s)))
                     .collect::<Vec<_>>()
                     .join(", "),
                 sd.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max),
+                sd.switches.iter().filter_map(|w| w.slide_mm).fold(0.0, f64::max),
                 if sd.switches.iter().all(|w| w.passed) { "" } else { " ✗" }
             ));
             v.push(format!("{}{}", yes(sd.passed), if sd.at_limit { " (at the limit)" } else { "" }));
