@@ -194,6 +194,7 @@ pub fn joint_trajectory(
     // Two frames more than asked, so that the spline reaches the last output row.
     let mut y = crate::measure::free_run(m, controls, n + 2, None)?;
     cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
+    cpg_reservoir::integrate_in_place(&m.outputs, &mut y, rate);
     let t = target.map.apply(target.robot, &names, &y, rate)?;
     let t = t.resample(target.robot, out_rate, n_out)?;
     Ok(t.limit(target.robot, target.acceleration_rad_s2)?)

@@ -51,6 +51,9 @@ pub const MIN_STANCE_S: f64 = 0.1;
 /// the floor in a walking swing).
 pub const FEET: [&str; 2] = ["lfoot", "rfoot"];
 
+/// The robot's command rate, Hz.
+pub const ROBOT_RATE_HZ: f64 = 1000.0;
+
 /// Fraction of the seeds that must pass everything.
 pub const SEED_FRACTION: f64 = 0.9;
 /// Largest distance from the posture while standing, degrees.
@@ -250,6 +253,12 @@ pub struct BodyResult {
     /// Every seed's switching run, the left femur's channel in its units, for the figure.
     #[serde(skip)]
     pub switch_runs: Vec<Vec<f64>>,
+    /// The first seed's switching run on the robot (when the test names one):
+    /// its mapped joints at 1 kHz within their ranges, velocity limits and the
+    /// acceleration bound, as `cpg hoap2` and `cpg stream` keep them.
+    pub robot: Option<cpg_hoap2::ClampReport>,
+    /// The acceleration bound the robot's joints were kept within, rad/s².
+    pub robot_acceleration_rad_s2: f64,
     /// The first seed's switching run as a scene for `cpg_view`.
     #[serde(skip)]
     pub view: Option<cpg_view::Scene>,
@@ -852,6 +861,41 @@ impl Test<'_> {
     }
 }
 
+/// Every held-out gait of `b` read and compared among itself, with its
+/// training teacher judged beside it.
+fn read_held_out(
+    c: &Config,
+    b: &WholeBodySection,
+    gait_index: &[usize],
+    m: &TrainedCpg,
+    prep: &crate::prepare::Prepared,
+    progress: &dyn Progress,
+) -> Result<Vec<HeldOutGait>> {
+    progress.start("reading the held-out trials", b.held_out.len() as u64);
+    let mut held = Vec::with_capacity(b.held_out.len());
+    for (k, (h, &i)) in b.held_out.iter().zip(gait_index).enumerate() {
+        let mut g = held_out(c, h, m, k)?;
+        judge_teacher(&mut g, &prep.teachers[i], &prep.outputs);
+        held.push(g);
+        progress.tick();
+    }
+    progress.finish();
+    Ok(held)
+}
+
+/// `m`'s run under `schedule` for `seconds` on the robot at [`ROBOT_RATE_HZ`],
+/// within its limits: how each joint fared.
+fn robot_clamps(
+    m: &TrainedCpg,
+    schedule: &ControlSchedule,
+    seconds: f64,
+    robot: &cpg_hoap2::Robot,
+    map: &cpg_hoap2::ChannelMap,
+) -> Result<cpg_hoap2::ClampReport> {
+    let target = crate::stream::RobotTarget { robot, map, acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 };
+    Ok(crate::stream::joint_trajectory(m, schedule, seconds, Some(ROBOT_RATE_HZ), target)?.clamps)
+}
+
 /// Runs the whole body's test on configuration `c`.
 pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progress) -> Result<BodyResult> {
     let seeds = seeds(c, opts)?;
@@ -863,15 +907,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
     let d = prep.outputs.len();
     let first = &models[0];
     let (stand, gait_index) = roles(c, b, teachers, d)?;
-    progress.start("reading the held-out trials", b.held_out.len() as u64);
-    let mut held = Vec::with_capacity(b.held_out.len());
-    for (k, (h, &i)) in b.held_out.iter().zip(&gait_index).enumerate() {
-        let mut g = held_out(c, h, first, k)?;
-        judge_teacher(&mut g, &teachers[i], &prep.outputs);
-        held.push(g);
-        progress.tick();
-    }
-    progress.finish();
+    let held = read_held_out(c, b, &gait_index, first, &prep, progress)?;
     let reference =
         c.data.period_channel.as_ref().and_then(|n| prep.outputs.iter().position(|o| &o.name == n)).unwrap_or(0);
     // Each channel's largest step in the recorded training trials (the
@@ -909,6 +945,10 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
     };
     let robot = match &b.robot {
         Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
+        None => None,
+    };
+    let robot_run = match &robot {
+        Some((r, map)) => Some(robot_clamps(first, &test.schedule, switch_len_s, r, map)?),
         None => None,
     };
     progress.start("free runs", seeds.len() as u64);
@@ -955,6 +995,8 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         run_s,
         switch_at_s,
         view: per_seed.iter().find_map(|s| s.2.clone()),
+        robot: robot_run,
+        robot_acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
         switch_runs: per_seed.iter().map(|s| s.1.clone()).collect(),
         seeds: per_seed.into_iter().map(|s| s.0).collect(),
         claims: Vec::new(),

@@ -105,6 +105,7 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
         None,
     );
     claims_side_by_side(s, rs);
+    robot(s, r);
     switch_runs(s, r);
     per_seed(s, r);
     for (k, g) in r.held_out.iter().enumerate() {
@@ -251,4 +252,49 @@ fn switch_runs(s: &mut Section, r: &BodyResult) {
     s.figure("fig_whole_body_switches", panels, 2, (1300, 170 * rows));
     s.line("![Every seed's switching run (the period channel; gray bands: the ramps of the inputs)](fig_whole_body_switches.png)");
     s.blank();
+}
+
+fn robot(s: &mut Section, r: &BodyResult) {
+    let Some(c) = &r.robot else { return };
+    let seed = r.seeds.first().map_or(0, |s| s.model.seed);
+    let rows: Vec<Vec<String>> = c
+        .joints
+        .iter()
+        .map(|j| {
+            let share = |n: usize| format!("{:.1} %", 100.0 * n as f64 / j.n_frames.max(1) as f64);
+            vec![
+                format!("`{}`", j.joint),
+                format!("{:.1} … {:.1}", j.min_rad.to_degrees(), j.max_rad.to_degrees()),
+                share(j.n_clamped),
+                format!("{:.1}", j.max_velocity_rad_s),
+                share(j.n_velocity_limited),
+                share(j.n_acceleration_limited),
+                format!("{:.1}°", j.max_lag_rad.to_degrees()),
+            ]
+        })
+        .collect();
+    let limited = c.joints.iter().filter(|j| j.limited_share() > 0.05).count();
+    let worst = c.joints.iter().max_by(|a, b| a.max_lag_rad.total_cmp(&b.max_lag_rad));
+    s.line(format!(
+        "On the HOAP-2: the switching run of seed {seed} ({:.0} s) mapped by the configuration's channel map onto the robot's {} joints at {ROBOT_RATE_HZ:.0} Hz and kept within each joint's range, its URDF velocity limit and an acceleration bound of {:.0} rad/s², as `cpg hoap2` and `cpg stream --robot` keep it. A bound changed more than 5 % of the frames of {limited} of the {} joints{}:",
+        r.switch_at_s.last().map_or(0.0, |t| t + r.test.ramp_s + r.test.stay_s),
+        c.joints.len(),
+        r.robot_acceleration_rad_s2,
+        c.joints.len(),
+        worst.map_or(String::new(), |j| format!("; the furthest a command lagged the angle asked for is {:.1}° (`{}`)", j.max_lag_rad.to_degrees(), j.joint))
+    ));
+    s.blank();
+    s.table(
+        &[
+            "joint",
+            "asked (°)",
+            "beyond the range",
+            "fastest asked (rad/s)",
+            "velocity-limited",
+            "acceleration-limited",
+            "largest lag",
+        ],
+        "lrrrrrr",
+        &rows,
+    );
 }
