@@ -329,3 +329,31 @@ fn the_whole_body_walks_and_runs_like_trials_it_never_saw() {
         assert_eq!(s.switches.len(), 4);
     }
 }
+
+/// The same whole body with its readout learnt by FORCE
+/// (`experiments/whole-body-force.toml`, one quick seed): online recursive
+/// least squares on the network's own output gives a generator that keeps
+/// the held-out trials' period and comes as close to them as they come to
+/// each other.
+#[test]
+fn force_learns_the_whole_body_too() {
+    let Outcome::WholeBody(r) = quick("whole-body-force") else {
+        panic!("whole-body-force is a whole_body experiment")
+    };
+    assert_eq!(r.trainer, "FORCE");
+    assert_eq!(r.channels.len(), 62);
+    for s in &r.seeds {
+        for (g, h) in s.gaits.iter().zip(&r.held_out) {
+            let ratio = g.period_steps.unwrap_or(f64::NAN) / h.period_frames;
+            assert!((ratio - 1.0).abs() < 0.03, "seed {} {}: period ratio {ratio:.3}", s.model.seed, g.teacher);
+            assert!(
+                g.error < 1.5 * h.spread,
+                "seed {} {}: error {:.2}° against {:.2}°",
+                s.model.seed,
+                g.teacher,
+                g.error,
+                h.spread
+            );
+        }
+    }
+}

@@ -222,6 +222,51 @@ pub struct TrainingSection {
     pub prefer_larger_within: f64,
     /// Settings of the `orbit` score.
     pub orbit: Option<OrbitSection>,
+    /// How the readout is learnt.
+    #[serde(default)]
+    pub trainer: Trainer,
+    /// FORCE's settings (with `trainer = "force"`).
+    #[serde(default)]
+    pub force: ForceSection,
+}
+
+/// How the readout is learnt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Trainer {
+    /// Batch ridge regression on the teacher-forced states, every penalty of
+    /// `penalty_log10` validated (the paper's).
+    #[default]
+    Ridge,
+    /// FORCE (Sussillo & Abbott 2009): recursive least squares online while
+    /// the network runs on its own fed-back output; `penalty_log10` is the
+    /// grid of α (the inverse correlation starts at I / α), each validated.
+    Force,
+}
+
+/// `[training.force]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSection {
+    /// RLS corrections every this many steps.
+    #[serde(default = "default_force_every")]
+    pub every: usize,
+    /// Passes over the training sequence.
+    #[serde(default = "default_force_passes")]
+    pub passes: usize,
+}
+
+fn default_force_every() -> usize {
+    2
+}
+fn default_force_passes() -> usize {
+    1
+}
+
+impl Default for ForceSection {
+    fn default() -> Self {
+        ForceSection { every: default_force_every(), passes: default_force_passes() }
+    }
 }
 
 impl Default for TrainingSection {
@@ -237,6 +282,8 @@ impl Default for TrainingSection {
             teacher_noise: 0.0,
             prefer_larger_within: 0.0,
             orbit: None,
+            trainer: Trainer::default(),
+            force: ForceSection::default(),
         }
     }
 }
@@ -1366,6 +1413,12 @@ impl TrainingSection {
         }
         if let Some(push) = t.orbit.as_ref().and_then(|o| o.push.as_ref()) {
             push.check().map_err(|m| ("training.orbit.push".to_owned(), m))?;
+        }
+        if !(1..=100).contains(&t.force.every) {
+            return fail("training.force.every", format!("{}; expected 1 to 100 steps", t.force.every));
+        }
+        if !(1..=100).contains(&t.force.passes) {
+            return fail("training.force.passes", format!("{}; expected 1 to 100", t.force.passes));
         }
         Ok(())
     }

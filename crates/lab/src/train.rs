@@ -95,7 +95,13 @@ pub fn train_prepared_on(
         Some(r) if r.seed() == seed && r.config() == rc.get() => r,
         _ => Reservoir::new(&rc, seed)?,
     };
-    let training = cpg_reservoir::train_on(&reservoir, &p.data, &settings, threads)?;
+    let training = match c.training.trainer {
+        crate::config::Trainer::Ridge => cpg_reservoir::train_on(&reservoir, &p.data, &settings, threads)?,
+        crate::config::Trainer::Force => {
+            let f = cpg_reservoir::ForceSettings { every: c.training.force.every, passes: c.training.force.passes };
+            cpg_reservoir::train_force_on(&reservoir, &p.data, &settings, &f, threads)?
+        }
+    };
     let model = TrainedCpg::new(
         reservoir,
         training,

@@ -33,6 +33,7 @@ mod config;
 mod controls;
 mod engine;
 mod error;
+mod force;
 mod generator;
 pub mod kernel;
 mod model;
@@ -47,6 +48,7 @@ pub use config::{
 };
 pub use engine::Hold;
 pub use error::{ConfigError, Error, Result};
+pub use force::{ForceSettings, train_force_on};
 pub use generator::Generator;
 pub use model::{
     FORMAT_VERSION, MAGIC, MAX_MODEL_BYTES, MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, OutputChannel, Provenance, Teacher,

@@ -35,7 +35,7 @@ impl Sequence {
         self.outputs.len() / n_outputs.max(1)
     }
 
-    fn check(&self, what: &'static str, d: usize, u: usize) -> Result<usize> {
+    pub(crate) fn check(&self, what: &'static str, d: usize, u: usize) -> Result<usize> {
         if d == 0 || !self.outputs.len().is_multiple_of(d) {
             return Err(Error::Shape(format!("{what}: {} output values do not form rows of {d}", self.outputs.len())));
         }
@@ -153,7 +153,7 @@ impl TrainSettings {
 
     /// The validation-noise settings are usable. (The washout is checked by
     /// [`harvest`], which knows the sequence length.)
-    fn check_noise(&self) -> Result<()> {
+    pub(crate) fn check_noise(&self) -> Result<()> {
         if !(self.noise_variance.is_finite() && self.noise_variance >= 0.0) {
             return Err(Error::Settings(format!("noise variance {} must be >= 0", self.noise_variance)));
         }
@@ -352,7 +352,7 @@ fn check_scoring(scoring: &Scoring, steps: usize, d: usize) -> Result<()> {
     Ok(())
 }
 
-fn validate_in<R: SimdDot>(
+pub(crate) fn validate_in<R: SimdDot>(
     engine: &Engine<R>,
     candidates: &[Candidate],
     data: &TrainingData,
@@ -522,6 +522,23 @@ fn score_orbit<R: SimdDot>(
         .collect()
 }
 
+/// The candidate validation chooses: the best score, or the largest penalty
+/// scoring within `(1 + prefer_larger_within) ×` it (ties to the larger).
+pub(crate) fn choose(curve: &[ValidationPoint], settings: &TrainSettings) -> Result<usize> {
+    let best = curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    if !best.is_finite() {
+        return Err(Error::AllDiverged { candidates: curve.len() });
+    }
+    let limit = best * (1.0 + settings.prefer_larger_within);
+    (0..curve.len())
+        .filter(|&i| curve[i].nmse <= limit)
+        .fold(None, |b: Option<usize>, i| match b {
+            Some(b) if curve[b].penalty >= curve[i].penalty => Some(b),
+            _ => Some(i),
+        })
+        .ok_or_else(|| Error::Settings("no candidate penalty".into()))
+}
+
 fn train_in<R: SimdDot>(
     reservoir: &Reservoir,
     data: &TrainingData,
@@ -541,18 +558,7 @@ fn train_in<R: SimdDot>(
             .into_iter()
             .collect::<Result<_, _>>()?;
     let (curve, x0) = validate_in(&engine, &candidates, data, settings, threads)?;
-    let best = curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
-    if !best.is_finite() {
-        return Err(Error::AllDiverged { candidates: curve.len() });
-    }
-    let limit = best * (1.0 + settings.prefer_larger_within);
-    let chosen = (0..curve.len())
-        .filter(|&i| curve[i].nmse <= limit)
-        .fold(None, |b: Option<usize>, i| match b {
-            Some(b) if curve[b].penalty >= curve[i].penalty => Some(b),
-            _ => Some(i),
-        })
-        .ok_or_else(|| Error::Settings("no candidate penalty".into()))?;
+    let chosen = choose(&curve, settings)?;
     let Candidate { penalty, readout } =
         candidates.into_iter().nth(chosen).ok_or(Error::Settings("no candidate penalties".into()))?;
     let mut pred = vec![0.0; rows * d];

@@ -272,3 +272,34 @@ fn a_rate_channel_is_integrated_the_same_by_the_generator_and_after_a_run() {
     // A mean rate of 2 units/s for 2.5 s travels about 5 units.
     assert!((integrated[steps - 1] - 5.0).abs() < 1.0, "{}", integrated[steps - 1]);
 }
+
+/// FORCE learns the sine online on its own output (two passes): its free run
+/// follows the sine, the chosen α is one of the grid, and the bits do not
+/// depend on the thread count.
+#[test]
+fn force_learns_a_sine_on_its_own_output() {
+    let c = ReservoirConfig {
+        n_neurons: 100,
+        inputs: vec![Coupling { fraction: 0.5, scale: 0.2, center: 1.0 }],
+        ..ReservoirConfig::wyffels_schrauwen_2009()
+    };
+    let res = Reservoir::new(&c.check().unwrap(), 5).unwrap();
+    let seq = |len, off| Sequence { outputs: sine(len, off), controls: vec![1.0; len] };
+    let data = TrainingData::nmse(seq(1500, 0), seq(800, 0), seq(200, 800));
+    let settings = TrainSettings {
+        washout: 100,
+        penalties: PenaltyGrid::log10_range(1.0, 1.0, 0.0).unwrap(),
+        n_noise_draws: 1,
+        noise_variance: 0.0,
+        ..TrainSettings::wyffels_schrauwen_2009()
+    };
+    let force = ForceSettings { every: 1, passes: 2 };
+    let tr = train_force_on(&res, &data, &settings, &force, 1).unwrap();
+    let again = train_force_on(&res, &data, &settings, &force, 2).unwrap();
+    assert_eq!(tr.readout, again.readout, "the same readout on one thread and two");
+    assert!([10.0, 1.0].contains(&tr.penalty), "α {}", tr.penalty);
+    // The second pass's error before each correction, the transient after its washout included.
+    assert!(tr.train_nmse < 0.05, "online error {}", tr.train_nmse);
+    let score = tr.curve.iter().find(|v| v.penalty == tr.penalty).unwrap().nmse;
+    assert!(score < 0.01, "the free run's NMSE against the sine: {score}");
+}

@@ -234,6 +234,8 @@ pub struct BodyResult {
     pub recorded_step: f64,
     /// Each recorded training trial's largest foot slide by the same rule, mm (the yardstick of the data).
     pub data_slide_mm: Vec<(String, f64)>,
+    /// How the readout was learnt (`ridge`, `FORCE`).
+    pub trainer: String,
     /// Seconds the training of every seed took, on the run's threads.
     pub train_wall_s: f64,
     /// Threads it ran on.
@@ -991,6 +993,10 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         data_steps,
         data_slide_mm,
         train_wall_s,
+        trainer: match c.training.trainer {
+            crate::config::Trainer::Ridge => "ridge regression".into(),
+            crate::config::Trainer::Force => "FORCE".into(),
+        },
         threads: opts.threads,
         run_s,
         switch_at_s,

@@ -47,7 +47,7 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
             g.trials.iter().map(|t| format!("{} ({:.1} frames)", t.label, t.period_frames)).collect();
         let pe = crate::stats::Spread::of(&g.pair_errors);
         s.line(format!(
-            "- {}: {}; median period {:.1} frames; their spread (the RMS error of one trial's time-normalised cycle against another's, over every channel and phase, at the best phase) {:.2}° (median of {} pairs; {:.2}–{:.2}°).",
+            "- {}: {}; median period {:.1} frames; their spread (the RMS error of one trial's time-normalised cycle against another's, over every rotation and phase, at the best phase) {:.2}° (median of {} pairs; {:.2}–{:.2}°).",
             g.teacher,
             periods.join(", "),
             g.period_frames,
@@ -72,21 +72,28 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
     s.line("What one recurrent network was shown to hold before, as published, beside this run:");
     s.blank();
     let mut rows: Vec<Vec<String>> = PUBLISHED.iter().map(|r| r.iter().map(|c| (*c).to_owned()).collect()).collect();
-    let all = |f: &dyn Fn(&BodySeed) -> bool| r.seeds.iter().filter(|s| f(s)).count();
-    rows.push(vec![
-        format!("this run ({})", ctx.path(&r.header.config)),
-        format!("{} rotations of subject 35", r.channels.len()),
-        r.header.n_neurons.to_string(),
-        format!("{}, switched by two inputs", r.teachers.join(", ")),
-        format!(
-            "{} of {n} seeds stand still; gaits after {} s: every gait passes in {} of {n}",
-            all(&|s| s.stand.passed),
-            r.run_s,
-            all(&|s| s.gaits.iter().all(|g| g.passed))
-        ),
-        format!("{} of {n} seeds pass every switch", all(&|s| s.switches.iter().all(|w| w.passed))),
-        r.held_out.iter().map(|g| format!("{}: {} trials", g.teacher, g.trials.len())).collect::<Vec<_>>().join("; "),
-    ]);
+    for r in rs {
+        let n = r.seeds.len();
+        let all = |f: &dyn Fn(&BodySeed) -> bool| r.seeds.iter().filter(|s| f(s)).count();
+        rows.push(vec![
+            format!("this run, {} ({})", trainer(r), ctx.path(&r.header.config)),
+            format!("{} of subject 35", r.channels.len()),
+            r.header.n_neurons.to_string(),
+            format!("{}, switched by two inputs", r.teachers.join(", ")),
+            format!(
+                "{} of {n} seeds stand still; gaits after {} s: every gait passes in {} of {n}",
+                all(&|s| s.stand.passed),
+                r.run_s,
+                all(&|s| s.gaits.iter().all(|g| g.passed))
+            ),
+            format!("{} of {n} seeds pass every switch", all(&|s| s.switches.iter().all(|w| w.passed))),
+            r.held_out
+                .iter()
+                .map(|g| format!("{}: {} trials", g.teacher, g.trials.len()))
+                .collect::<Vec<_>>()
+                .join("; "),
+        ]);
+    }
     s.table(
         &["network", "channels", "units", "motions", "long-run stability, standing", "switches", "trials held out"],
         "lllllll",
@@ -104,14 +111,63 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
         ),
         None,
     );
+    trainers(s, rs);
     claims_side_by_side(s, rs);
     robot(s, r);
     switch_runs(s, r);
-    per_seed(s, r);
+    for r in rs {
+        per_seed(s, r);
+    }
     for (k, g) in r.held_out.iter().enumerate() {
         per_channel(s, r, k, g);
     }
     validation_curves(s, rs, "fig_validation_whole_body");
+}
+
+/// How a configuration's readout was learnt, in words.
+fn trainer(r: &BodyResult) -> String {
+    format!("{}, {}", protocol_name(&r.header), r.trainer)
+}
+
+/// The trainers side by side: what each holds, with what neurons, in what time.
+fn trainers(s: &mut Section, rs: &[&BodyResult]) {
+    if rs.len() < 2 {
+        return;
+    }
+    let rows: Vec<Vec<String>> = rs
+        .iter()
+        .map(|r| {
+            let n = r.seeds.len();
+            let count = |f: &dyn Fn(&BodySeed) -> bool| format!("{} of {n}", r.seeds.iter().filter(|s| f(s)).count());
+            let mut row = vec![
+                trainer(r),
+                r.header.n_neurons.to_string(),
+                format!("{:.1} s", r.train_wall_s / n as f64 * r.threads.min(n).max(1) as f64),
+            ];
+            row.push(count(&|s| s.stand.passed));
+            for k in 0..r.held_out.len() {
+                let e: Vec<f64> = r.seeds.iter().map(|s| s.gaits[k].error).collect();
+                row.push(format!(
+                    "{:.2}° ({} within the spread)",
+                    crate::stats::median(&e),
+                    count(&|s| s.gaits[k].error_ok)
+                ));
+            }
+            row.push(count(&|s| s.switches.iter().all(|w| w.passed)));
+            row.push(count(&|s| s.passed));
+            row
+        })
+        .collect();
+    let mut head = vec!["readout".to_owned(), "neurons".to_owned(), "training per seed".to_owned(), "stand".to_owned()];
+    if let Some(r) = rs.first() {
+        head.extend(r.held_out.iter().map(|g| format!("{}: cycle error (median)", g.teacher)));
+    }
+    head.push("every switch".into());
+    head.push("everything".into());
+    let head: Vec<&str> = head.iter().map(String::as_str).collect();
+    s.line("The two readouts on the same data, reservoirs, seeds, validation and test (training time: the wall time of all seeds over the seeds a thread trained):");
+    s.blank();
+    s.table(&head, &format!("l{}", "r".repeat(head.len() - 1)), &rows);
 }
 
 fn per_seed(s: &mut Section, r: &BodyResult) {
@@ -163,7 +219,8 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
         })
         .collect();
     s.line(format!(
-        "Per seed (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3})):",
+        "Per seed, {} (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3})):",
+        trainer(r),
         r.data_steps.iter().copied().filter(|v| *v > 1e-9).fold(f64::INFINITY, f64::min),
         r.recorded_step,
         r.data_step
