@@ -227,7 +227,7 @@ pub struct TrainingSection {
     pub trainer: Trainer,
     /// FORCE's settings (with `trainer = "force"`).
     #[serde(default)]
-    pub force: ForceSection,
+    pub force: cpg_reservoir::ForceSettings,
 }
 
 /// How the readout is learnt.
@@ -244,31 +244,6 @@ pub enum Trainer {
     Force,
 }
 
-/// `[training.force]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ForceSection {
-    /// RLS corrections every this many steps.
-    #[serde(default = "default_force_every")]
-    pub every: usize,
-    /// Passes over the training sequence.
-    #[serde(default = "default_force_passes")]
-    pub passes: usize,
-}
-
-fn default_force_every() -> usize {
-    2
-}
-fn default_force_passes() -> usize {
-    1
-}
-
-impl Default for ForceSection {
-    fn default() -> Self {
-        ForceSection { every: default_force_every(), passes: default_force_passes() }
-    }
-}
-
 impl Default for TrainingSection {
     fn default() -> Self {
         TrainingSection {
@@ -283,7 +258,7 @@ impl Default for TrainingSection {
             prefer_larger_within: 0.0,
             orbit: None,
             trainer: Trainer::default(),
-            force: ForceSection::default(),
+            force: cpg_reservoir::ForceSettings::default(),
         }
     }
 }

@@ -12,7 +12,7 @@ use std::io::Write;
 use std::path::Path;
 
 use cpg_hoap2::JointTrajectory;
-use cpg_mocap::{Channel, Motion, Positions, Skeleton};
+use cpg_mocap::{Motion, Positions, Skeleton};
 use cpg_reservoir::TrainedCpg;
 
 use crate::error::{Error, Result};
@@ -189,15 +189,7 @@ pub fn write_run(path: &Path, format: Format, m: &TrainedCpg, run: &Run, skeleto
             let sk = skeleton.ok_or_else(|| {
                 Error::Unusable("the model stores no skeleton (it was trained from arrays): give a skeleton".into())
             })?;
-            let channels: Vec<Channel> = m
-                .outputs
-                .iter()
-                .map(|o| {
-                    Channel::parse(o.unit_name()).ok_or_else(|| {
-                        Error::name(&o.name, format!("output '{}' is not a mocap channel (bone.dof)", o.name))
-                    })
-                })
-                .collect::<Result<_>>()?;
+            let channels = crate::run::mocap_channels(m)?;
             // Every channel, and a root on the floor when the model generates none.
             let motion = sk.ground(&Motion::new(channels, run.values.clone(), run.rate_hz)?)?;
             write_motion(path, format, sk, &motion)

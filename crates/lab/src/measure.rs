@@ -341,10 +341,21 @@ pub fn settle_on_orbit(y: &[f64], d: usize, cycle: &[f64], from: usize, rate_hz:
 
 /// Largest step-to-step change of any channel of `y` (`T × d`).
 pub fn max_step(y: &[f64], d: usize) -> f64 {
-    y.chunks_exact(d.max(1))
-        .collect::<Vec<_>>()
-        .windows(2)
-        .fold(0.0, |m, w| w[0].iter().zip(w[1]).fold(m, |m, (a, b)| m.max((b - a).abs())))
+    channel_steps(y, d).into_iter().fold(0.0, f64::max)
+}
+
+/// Each channel's largest step-to-step change in `y` (`T × d`).
+pub fn channel_steps(y: &[f64], d: usize) -> Vec<f64> {
+    let mut out = vec![0.0; d];
+    if d == 0 {
+        return out;
+    }
+    for (a, b) in y.chunks_exact(d).zip(y.chunks_exact(d).skip(1)) {
+        for ((m, x), z) in out.iter_mut().zip(a).zip(b) {
+            *m = f64::max(*m, (z - x).abs());
+        }
+    }
+    out
 }
 
 /// A perturbation of a reservoir run: from `at`, for `len` steps, the fed-back

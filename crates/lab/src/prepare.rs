@@ -141,7 +141,7 @@ fn blend_at(a: &[f64], b: &[f64], d: usize, ph: f64, w: f64, out: &mut Vec<f64>)
     }
 }
 
-fn periodic(cycle: &[f64], p: usize, d: usize, pos: f64, c: usize) -> f64 {
+pub(crate) fn periodic(cycle: &[f64], p: usize, d: usize, pos: f64, c: usize) -> f64 {
     let q = pos.rem_euclid(p as f64);
     let i0 = (q.floor() as usize).min(p - 1);
     let i1 = (i0 + 1) % p;

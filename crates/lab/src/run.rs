@@ -216,6 +216,19 @@ impl std::fmt::Display for RangeWarning {
     }
 }
 
+/// The channels a model generates in units, as mocap channels (`bone.dof`;
+/// a rate's is the channel it integrates into): what a skeleton reads its
+/// runs as. An output that is not a mocap channel is an error naming it.
+pub fn mocap_channels(m: &TrainedCpg) -> Result<Vec<cpg_mocap::Channel>> {
+    m.outputs
+        .iter()
+        .map(|o| {
+            cpg_mocap::Channel::parse(o.unit_name())
+                .ok_or_else(|| Error::name(&o.name, format!("output '{}' is not a mocap channel (bone.dof)", o.name)))
+        })
+        .collect()
+}
+
 /// Whether a channel name is a rotation (`bone.rx`, `.ry`, `.rz`: degrees).
 pub fn is_rotation(name: &str) -> bool {
     name.ends_with(".rx") || name.ends_with(".ry") || name.ends_with(".rz")

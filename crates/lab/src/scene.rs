@@ -67,14 +67,7 @@ pub fn run_scene(
     };
     let sk =
         cpg_mocap::parse_asf("the skeleton stored in the model", asf.as_bytes()).map_err(cpg_mocap::Error::from)?;
-    let channels: Vec<Channel> = m
-        .outputs
-        .iter()
-        .map(|o| {
-            Channel::parse(o.unit_name())
-                .ok_or_else(|| Error::name(&o.name, format!("output '{}' is not a mocap channel", o.name)))
-        })
-        .collect::<Result<_>>()?;
+    let channels = crate::run::mocap_channels(m)?;
     let rate = m.provenance.sample_rate_hz;
     let d = m.outputs.len();
     if d == 0 || y_units.is_empty() || !y_units.len().is_multiple_of(d) {

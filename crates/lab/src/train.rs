@@ -98,8 +98,7 @@ pub fn train_prepared_on(
     let training = match c.training.trainer {
         crate::config::Trainer::Ridge => cpg_reservoir::train_on(&reservoir, &p.data, &settings, threads)?,
         crate::config::Trainer::Force => {
-            let f = cpg_reservoir::ForceSettings { every: c.training.force.every, passes: c.training.force.passes };
-            cpg_reservoir::train_force_on(&reservoir, &p.data, &settings, &f, threads)?
+            cpg_reservoir::train_force_on(&reservoir, &p.data, &settings, &c.training.force, threads)?
         }
     };
     let model = TrainedCpg::new(

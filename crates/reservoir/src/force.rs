@@ -28,8 +28,9 @@ use crate::kernel::SimdDot;
 use crate::reservoir::Reservoir;
 use crate::train::{Candidate, Sequence, TrainSettings, Training, TrainingData, choose, validate_in};
 
-/// How FORCE learns.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// How FORCE learns (a configuration's `[training.force]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ForceSettings {
     /// RLS corrections every this many steps (1: every step).
     pub every: usize,
@@ -122,13 +123,14 @@ fn learn<R: SimdDot>(
     let mut pr = Mat::<f64>::zeros(f, 1);
     let mut x = vec![R::ZERO; np];
     let mut z = seq.outputs[..d].to_vec();
+    let mut fed = vec![0.0; d];
     // The last pass's outputs before each correction, and their targets.
     let (mut said, mut meant) = (Vec::new(), Vec::new());
     for pass in 0..force.passes {
         let last = pass + 1 == force.passes;
         for k in 0..t - 1 {
             // The fed-back output: the teacher through the first washout, the network's own after it.
-            let fed: Vec<f64> = if k < washout { seq.outputs[k * d..(k + 1) * d].to_vec() } else { z.clone() };
+            fed.copy_from_slice(if k < washout { &seq.outputs[k * d..(k + 1) * d] } else { &z });
             engine.teacher_force(&mut x, &fed, &seq.controls[k * u..(k + 1) * u], |_, _| {});
             for (i, v) in x[..n].iter().enumerate() {
                 r[(i, 0)] = v.to_f64();

@@ -114,6 +114,8 @@ pub struct Generator {
     out: Vec<f64>,
     /// The integrated channels' positions (rates' channels, `VELOCITY_SUFFIX`), from 0.
     position: Vec<f64>,
+    /// Which outputs are rates to integrate (read from the names once).
+    integrates: Vec<bool>,
     rate_hz: f64,
     n_controls: usize,
     steps: u64,
@@ -135,6 +137,7 @@ impl Generator {
             normalised: vec![0.0; d],
             out: vec![0.0; d],
             position: vec![0.0; d],
+            integrates: model.outputs.iter().map(|o| o.integrates().is_some()).collect(),
             rate_hz: model.provenance.sample_rate_hz,
             n_controls: model.controls.len(),
             steps: 0,
@@ -240,9 +243,12 @@ impl Generator {
             self.diverged = true;
             return Err(Error::Diverged { what: "state or output", step: self.steps });
         }
-        for (((o, v), ch), p) in self.out.iter_mut().zip(&self.normalised).zip(&self.outputs).zip(&mut self.position) {
+        let channels = self.outputs.iter().zip(&self.integrates);
+        for (((o, v), (ch, &rate)), p) in
+            self.out.iter_mut().zip(&self.normalised).zip(channels).zip(&mut self.position)
+        {
             *o = ch.to_units(*v);
-            if ch.integrates().is_some() {
+            if rate {
                 *p += *o / self.rate_hz;
                 *o = *p;
             }

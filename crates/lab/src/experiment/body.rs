@@ -21,10 +21,10 @@ use super::claim::{Claim, Measure, Source, Verdict};
 use super::{Header, Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
 use crate::config::{Config, WholeBodySection};
 use crate::error::Result;
-use crate::measure::{RunSpec, STILL_SWING, WINDOW_S, column, free_runs, max_step, settle_on_orbit};
+use crate::measure::{RunSpec, STILL_SWING, WINDOW_S, channel_steps, column, free_runs, max_step, settle_on_orbit};
 use crate::schedule::ControlSchedule;
 use crate::stats::{Proportion, at_limit, median};
-use cpg_mocap::cycle::{best_loop, estimate_period, half_range};
+use cpg_mocap::cycle::{best_loop, estimate_period, half_range, tile};
 use cpg_reservoir::{Teacher, TrainedCpg};
 
 /// Largest relative error of a gait's period against the held-out trials' median.
@@ -269,14 +269,12 @@ pub struct BodyResult {
 /// `cycle` (`p × d`, any `p ≥ 1`) sampled at [`PHASES`] evenly spaced phases.
 fn time_normalised(cycle: &[f64], d: usize) -> Vec<f64> {
     let p = cycle.len() / d;
-    let mut out = Vec::with_capacity(PHASES * d);
-    for k in 0..PHASES {
-        let pos = k as f64 * p as f64 / PHASES as f64;
-        let (i, f) = (pos.floor() as usize % p, pos.fract());
-        let j = (i + 1) % p;
-        out.extend((0..d).map(|c| (1.0 - f) * cycle[i * d + c] + f * cycle[j * d + c]));
-    }
-    out
+    (0..PHASES)
+        .flat_map(|k| {
+            let pos = k as f64 * p as f64 / PHASES as f64;
+            (0..d).map(move |c| crate::prepare::periodic(cycle, p, d, pos, c))
+        })
+        .collect()
 }
 
 /// The last `period` steps of `y` (`T × d`; a fractional period) sampled at [`PHASES`] phases.
@@ -315,16 +313,15 @@ fn rotations(outputs: &[cpg_reservoir::OutputChannel]) -> Vec<bool> {
 }
 
 /// Each held-out trial of `h`'s gait read, its stride cut and time-normalised.
-fn held_out(c: &Config, h: &crate::config::HeldOutSection, m: &TrainedCpg, k: usize) -> Result<HeldOutGait> {
+fn held_out(
+    c: &Config,
+    h: &crate::config::HeldOutSection,
+    m: &TrainedCpg,
+    sk: &cpg_mocap::Skeleton,
+    k: usize,
+) -> Result<HeldOutGait> {
     let d = m.outputs.len();
     let rate = c.data.rate_hz;
-    let skeleton = c
-        .data
-        .skeleton
-        .as_ref()
-        .ok_or_else(|| c.error("data.skeleton", "is needed to read the held-out trials (AMC)"))?;
-    let bytes = cpg_mocap::read_bounded(skeleton, cpg_mocap::MAX_INPUT_BYTES)?;
-    let sk = cpg_mocap::parse_asf(&skeleton.display().to_string(), &bytes).map_err(cpg_mocap::Error::from)?;
     let names: Vec<&str> = m.outputs.iter().map(|o| o.unit_name()).collect();
     let rates: Vec<usize> = (0..d).filter(|&k| m.outputs[k].integrates().is_some()).collect();
     let counted = rotations(&m.outputs);
@@ -343,7 +340,7 @@ fn held_out(c: &Config, h: &crate::config::HeldOutSection, m: &TrainedCpg, k: us
     for (i, path) in h.motions.iter().enumerate() {
         let key = format!("experiment.test.whole_body.held_out[{k}].motions[{i}]");
         let motion =
-            crate::prepare::as_rates(&cpg_mocap::Motion::from_amc_file(path, &sk, rate)?.select(&names)?, &rates)?;
+            crate::prepare::as_rates(&cpg_mocap::Motion::from_amc_file(path, sk, rate)?.select(&names)?, &rates)?;
         let units = motion.values();
         let z: Vec<f64> =
             units.chunks_exact(d).flat_map(|f| f.iter().zip(&m.outputs).map(|(v, o)| (v - o.mean) / o.std)).collect();
@@ -502,16 +499,7 @@ fn own_orbit(y: &[f64], d: usize, t: &Teacher, reference: usize) -> Option<Vec<f
 /// The motion a run in units (`T × d`, rates integrated) is, as the skeleton
 /// reads it.
 fn as_motion(m: &TrainedCpg, y_units: &[f64]) -> Result<cpg_mocap::Motion> {
-    let channels = m
-        .outputs
-        .iter()
-        .map(|o| {
-            cpg_mocap::Channel::parse(o.unit_name()).ok_or_else(|| {
-                crate::error::Error::name(&o.name, format!("output '{}' is not a mocap channel", o.name))
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(cpg_mocap::Motion::new(channels, y_units.to_vec(), m.provenance.sample_rate_hz)?)
+    Ok(cpg_mocap::Motion::new(crate::run::mocap_channels(m)?, y_units.to_vec(), m.provenance.sample_rate_hz)?)
 }
 
 /// The largest slide of a foot on the ground in frames `from..to` of
@@ -663,12 +651,6 @@ fn switching(teachers: &[Teacher], b: &WholeBodySection) -> (ControlSchedule, Ve
     (ControlSchedule::Knots(knots), at, clock)
 }
 
-/// Each channel's largest frame-to-frame step in `y` (`T × d`).
-fn channel_steps(y: &[f64], d: usize) -> Vec<f64> {
-    let frames: Vec<&[f64]> = y.chunks_exact(d).collect();
-    (0..d).map(|c| frames.windows(2).fold(0.0, |m: f64, w| m.max((w[1][c] - w[0][c]).abs()))).collect()
-}
-
 /// The larger of `a` and `b`, element by element.
 fn widest(a: Vec<f64>, b: Vec<f64>) -> Vec<f64> {
     a.iter().zip(&b).map(|(x, y)| x.max(*y)).collect()
@@ -756,7 +738,7 @@ impl Test<'_> {
         ((s * self.rate).round() as usize).min(self.switch_steps)
     }
 
-    /// Seed `seed`'s model run and judged; with its switching run (normalised).
+    /// Seed `seed`'s model run and judged; with its switching run in units (rates integrated).
     fn judge(&self, m: &TrainedCpg, seed: u64) -> Result<(BodySeed, Vec<f64>)> {
         let (b, d, rate) = (self.b, self.d, self.rate);
         let mut specs: Vec<RunSpec<'_>> = self
@@ -796,7 +778,7 @@ impl Test<'_> {
         parts.extend(gaits.iter().map(|g| (g.passed, g.at_limit)));
         parts.extend(switches.iter().map(|s| (s.passed, s.at_limit)));
         let (passed, at_limit) = combine(&parts);
-        Ok((BodySeed { model: SeedModel::of(m, seed), stand, gaits, switches, passed, at_limit }, sw))
+        Ok((BodySeed { model: SeedModel::of(m, seed), stand, gaits, switches, passed, at_limit }, units))
     }
 
     /// Switch `s` of the switching run `sw` judged: settling onto the
@@ -873,10 +855,14 @@ fn read_held_out(
     prep: &crate::prepare::Prepared,
     progress: &dyn Progress,
 ) -> Result<Vec<HeldOutGait>> {
+    let sk = prep
+        .skeleton
+        .as_ref()
+        .ok_or_else(|| c.error("data.skeleton", "is needed to read the held-out trials (AMC)"))?;
     progress.start("reading the held-out trials", b.held_out.len() as u64);
     let mut held = Vec::with_capacity(b.held_out.len());
     for (k, (h, &i)) in b.held_out.iter().zip(gait_index).enumerate() {
-        let mut g = held_out(c, h, m, k)?;
+        let mut g = held_out(c, h, m, sk, k)?;
         judge_teacher(&mut g, &prep.teachers[i], &prep.outputs);
         held.push(g);
         progress.tick();
@@ -915,11 +901,10 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
     // Each channel's largest step in the recorded training trials (the
     // data), and in the teachers' cycles, each tiled once round its seam (the
     // motion the generator learnt, averaged and smoother).
-    let tiled = |t: &Teacher| {
-        let p = t.cycle.len() / d;
-        (0..=p).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
-    };
-    let teacher_steps = teachers.iter().map(|t| channel_steps(&tiled(t), d)).fold(vec![0.0; d], widest);
+    let teacher_steps = teachers
+        .iter()
+        .map(|t| channel_steps(&tile(&t.cycle, d, t.cycle.len() / d + 1, 0), d))
+        .fold(vec![0.0; d], widest);
     let data_steps = prep.segments.iter().map(|s| channel_steps(s, d)).fold(vec![0.0; d], widest);
     let (data_slide_mm, floors) = data_slides(c, &prep, first)?;
     let run_s = if opts.quick { b.quick_run_s } else { b.run_s };
@@ -960,9 +945,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         .zip(&models)
         .enumerate()
         .map(|(i, (&seed, m))| {
-            let (judged, sw) = test.judge(m, seed)?;
-            let mut units = cpg_reservoir::to_units(&m.outputs, &sw);
-            cpg_reservoir::integrate_in_place(&m.outputs, &mut units, rate);
+            let (judged, units) = test.judge(m, seed)?;
             let view = if i == 0 {
                 let robot = robot.as_ref().map(|(r, map)| crate::scene::RobotView {
                     robot: r,

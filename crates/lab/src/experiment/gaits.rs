@@ -248,10 +248,7 @@ impl<'a> Switching<'a> {
                 (s2 + ramp, ta.controls.clone()),
             ])
         };
-        let tiled = |t: &cpg_reservoir::Teacher| {
-            let p = t.cycle.len() / d;
-            (0..p + 1).flat_map(|k| t.cycle[(k % p) * d..(k % p + 1) * d].to_vec()).collect::<Vec<f64>>()
-        };
+        let tiled = |t: &cpg_reservoir::Teacher| cpg_mocap::cycle::tile(&t.cycle, d, t.cycle.len() / d + 1, 0);
         Ok(Switching {
             teachers: [ta, tb],
             shapes: [TeacherShape::of(ta, d), TeacherShape::of(tb, d)],

@@ -81,7 +81,7 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
             r.header.n_neurons.to_string(),
             format!("{}, switched by two inputs", r.teachers.join(", ")),
             format!(
-                "{} of {n} seeds stand still; gaits after {} s: every gait passes in {} of {n}",
+                "standing passes in {} of {n} seeds; gaits after {} s: every gait passes in {} of {n}",
                 all(&|s| s.stand.passed),
                 r.run_s,
                 all(&|s| s.gaits.iter().all(|g| g.passed))
@@ -165,7 +165,7 @@ fn trainers(s: &mut Section, rs: &[&BodyResult]) {
     head.push("every switch".into());
     head.push("everything".into());
     let head: Vec<&str> = head.iter().map(String::as_str).collect();
-    s.line("The two readouts on the same data, reservoirs, seeds, validation and test (training time: the wall time of all seeds over the seeds a thread trained):");
+    s.line("The two readouts on the same data, reservoirs, seeds, validation and test (FORCE's \"penalties\" above are its α: the inverse correlation starts at I / α; training time: the wall time of all seeds over the seeds a thread trained):");
     s.blank();
     s.table(&head, &format!("l{}", "r".repeat(head.len() - 1)), &rows);
 }
