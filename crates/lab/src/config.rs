@@ -157,7 +157,9 @@ pub struct SegmentSection {
     /// A standing posture, not a rhythm: the segment is learnt as one
     /// posture the generator holds still (a fixed point). With
     /// `[data.retarget]`, the robot's standing pose the walk starts from (no
-    /// tempo); otherwise the mean frame of the motion (or of `frames`).
+    /// tempo); otherwise the mean frame of the motion (or of `frames`),
+    /// with a skeleton and `root.ty` among the channels put on the floor
+    /// the other segments' feet walk on ([`crate::measure::floors`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub stand: bool,
     /// Segments of one group are trials of one gait and one teacher (what

@@ -418,12 +418,77 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
     Ok(Read { channels, parts, z, still, labels })
 }
 
+/// Segment `k`'s standing posture (normalised, `x` its frames): one frame,
+/// the mean of the segment's; a rate channel held at 0 (a posture does not
+/// travel); with a skeleton and the root's height learnt, on the floor the
+/// gaits walk on.
+fn posture(
+    c: &Config,
+    r: &Read,
+    k: usize,
+    x: &[f64],
+    recorded: &[Motion],
+    skeleton: Option<&Skeleton>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<f64>> {
+    let d = r.channels.len();
+    let t = x.len() / d.max(1);
+    let mut pose: Vec<f64> = (0..d)
+        .map(|c| {
+            if r.channels[c].ends_with(cpg_reservoir::VELOCITY_SUFFIX) {
+                -r.z.mean[c] / r.z.std[c]
+            } else {
+                column(x, d, c).iter().sum::<f64>() / t.max(1) as f64
+            }
+        })
+        .collect();
+    let height = r.channels.iter().position(|ch| ch == "root.ty");
+    if let (Some(sk), Some(ty)) = (skeleton, height) {
+        let gaits: Vec<&Motion> =
+            recorded.iter().zip(&c.data.segments).filter(|(_, s)| !s.stand).map(|(m, _)| m).collect();
+        if let Some(lift_mm) = posture_lift_mm(sk, &recorded[k], &gaits)? {
+            pose[ty] += lift_mm / sk.mm_per_unit() / r.z.std[ty];
+            notes.push(format!(
+                "segment {}: the posture (the mean frame) {} by {:.1} mm so that its lower foot stands on the floor the other segments' feet walk on",
+                r.labels[k],
+                if lift_mm >= 0.0 { "raised" } else { "lowered" },
+                lift_mm.abs()
+            ));
+        }
+    }
+    Ok(pose)
+}
+
+/// How far (mm) the mean frame of `motion` must rise for its lower foot to
+/// stand on the floor of `gaits` ([`crate::measure::floors`] of their
+/// [`crate::measure::FEET`]): the most any foot lies below its floor.
+/// `None` without a gait or a foot point.
+fn posture_lift_mm(sk: &Skeleton, motion: &Motion, gaits: &[&Motion]) -> Result<Option<f64>> {
+    if gaits.is_empty() {
+        return Ok(None);
+    }
+    let (n, w) = (motion.n_frames().max(1), motion.channels().len());
+    let mean: Vec<f64> = (0..w).map(|c| motion.values().iter().skip(c).step_by(w).sum::<f64>() / n as f64).collect();
+    // The channels a motion lacks (a BVH's, a test's) are 0, as its writers put them.
+    let fk = |m: &Motion| sk.complete(m).and_then(|m| sk.forward_kinematics(&m));
+    let pose = fk(&Motion::new(motion.channels().to_vec(), mean, motion.sample_rate_hz())?)?;
+    let walked = gaits.iter().map(|m| fk(m)).collect::<std::result::Result<Vec<_>, _>>()?;
+    let floors = crate::measure::floors(&walked);
+    let below = crate::measure::FEET
+        .iter()
+        .zip(&floors)
+        .filter_map(|(name, floor)| pose.point_index(name).map(|i| floor - pose.points_mm[i][1]))
+        .fold(None, |a: Option<f64>, b| Some(a.map_or(b, |a| a.max(b))));
+    Ok(below)
+}
+
 /// One seamless loop per segment (normalised, rotated to start at the
 /// reference channel's maximum when blocks are morphed), and what was found.
 fn loops(
     c: &Config,
     r: &Read,
     recorded: &[Motion],
+    skeleton: Option<&Skeleton>,
     notes: &mut Vec<String>,
 ) -> Result<(Vec<Vec<f64>>, Vec<SegmentCycle>)> {
     let d_sec = &c.data;
@@ -444,17 +509,7 @@ fn loops(
         let x = r.z.apply(m)?.values().to_vec();
         let t = m.n_frames();
         if d_sec.segments[k].stand {
-            // A posture: one frame, the mean of the segment's.
-            // A posture does not travel: a rate channel holds still at 0.
-            let pose: Vec<f64> = (0..d)
-                .map(|c| {
-                    if r.channels[c].ends_with(cpg_reservoir::VELOCITY_SUFFIX) {
-                        -r.z.mean[c] / r.z.std[c]
-                    } else {
-                        column(&x, d, c).iter().sum::<f64>() / t.max(1) as f64
-                    }
-                })
-                .collect();
+            let pose = posture(c, r, k, &x, recorded, skeleton, notes)?;
             loops.push(pose);
             cycles.push(SegmentCycle {
                 label: label.clone(),
@@ -786,7 +841,7 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
     let (seqs, cycles, teachers) = if c.data.loop_cycles == 0 {
         (recorded_sequences(c, &r, &mut notes)?, Vec::new(), Vec::new())
     } else {
-        let (loops, cycles) = loops(c, &r, &rec.parts, &mut notes)?;
+        let (loops, cycles) = loops(c, &r, &rec.parts, rec.skeleton.as_ref().map(|s| &s.0), &mut notes)?;
         let (seqs, teachers) = match &c.data.tempo {
             Some(tp) => tempo_sequences(c, tp, &loops[0], d)?,
             None => {
@@ -992,6 +1047,44 @@ sequence = [0, 1, 0]
 [output]
 model = "m.cpg"
 "#;
+
+    /// Two legs of two bones each (thigh and foot, 8 units long) hanging from the root.
+    const LEGS_ASF: &str = ":version 1.10\n:name legs\n:units\n  mass 1.0\n  length 0.45\n  angle deg\n:root\n   order TX TY TZ RX RY RZ\n   axis XYZ\n   position 0 0 0\n   orientation 0 0 0\n:bonedata\n  begin\n     id 1\n     name lfemur\n     direction 0 -1 0\n     length 8.0\n     axis 0 0 0  XYZ\n    dof rx\n  end\n  begin\n     id 2\n     name lfoot\n     direction 0 -1 0\n     length 8.0\n     axis 0 0 0  XYZ\n  end\n  begin\n     id 3\n     name rfemur\n     direction 0 -1 0\n     length 8.0\n     axis 0 0 0  XYZ\n    dof rx\n  end\n  begin\n     id 4\n     name rfoot\n     direction 0 -1 0\n     length 8.0\n     axis 0 0 0  XYZ\n  end\n:hierarchy\n  begin\n    root lfemur rfemur\n    lfemur lfoot\n    rfemur rfoot\n  end\n";
+
+    #[test]
+    fn a_posture_sunk_below_the_gaits_floor_is_raised_onto_it() {
+        let toml = GROUPED
+            .replace(r#"channels = ["a.rx", "b.rx"]"#, r#"channels = ["root.ty", "lfemur.rx", "rfemur.rx"]"#)
+            .replace(r#"period_channel = "a.rx""#, r#"period_channel = "lfemur.rx""#)
+            .replacen(
+                "group = \"walk\"\n[[data.segments]]\nmotion = \"z.amc\"\ncontrols = [1]\ngroup = \"walk\"\n",
+                "",
+                1,
+            );
+        let c = Config::from_toml(&toml, Path::new("g.toml"), Path::new(".")).unwrap();
+        let sk = cpg_mocap::parse_asf("legs.asf", LEGS_ASF.as_bytes()).unwrap();
+        let ch = ["root.ty", "lfemur.rx", "rfemur.rx"].map(|s| Channel::parse(s).unwrap()).to_vec();
+        // Standing: legs straight down, the root sunk half a unit (28 mm) below where the walk carries it.
+        let stand = Motion::new(ch.clone(), [-0.5, 0.0, 0.0].repeat(200), 120.0).unwrap();
+        let walk: Vec<f64> = (0..400)
+            .flat_map(|k| {
+                let a = 30.0 * (2.0 * PI * k as f64 / 100.0).sin();
+                [0.0, a, -a]
+            })
+            .collect();
+        let walk = Motion::new(ch, walk, 120.0).unwrap();
+        let p =
+            prepare_recorded(&c, Recorded { skeleton: Some((sk.clone(), LEGS_ASF.into())), parts: vec![stand, walk] })
+                .unwrap();
+        // The walk's feet are lowest with the legs straight: 32 units below the root.
+        let height_mm = p.outputs[0].to_units(p.teachers[0].cycle[0]) * sk.mm_per_unit();
+        assert!(height_mm.abs() < 1.5, "the posture's root at {height_mm} mm; the walk's at 0");
+        assert!(
+            p.notes.iter().any(|n| n.contains("raised by 28.") && n.contains("stands on the floor")),
+            "{:?}",
+            p.notes
+        );
+    }
 
     #[test]
     fn a_velocity_channel_is_its_rate_per_second() {

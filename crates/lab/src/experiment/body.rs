@@ -21,7 +21,10 @@ use super::claim::{Claim, Measure, Source, Verdict};
 use super::{Header, Judged, Options, Progress, SeedModel, header, seeds, train_seeds, verdict_over};
 use crate::config::{Config, WholeBodySection};
 use crate::error::Result;
-use crate::measure::{RunSpec, STILL_SWING, WINDOW_S, channel_steps, column, free_runs, max_step, settle_on_orbit};
+use crate::measure::{
+    CONTACT_MM, FEET, FLOOR_QUANTILE, RunSpec, STILL_SWING, WINDOW_S, channel_steps, column, floors, foot_slide_mm,
+    free_runs, max_step, settle_on_orbit,
+};
 use crate::schedule::ControlSchedule;
 use crate::stats::{Proportion, at_limit, median};
 use cpg_mocap::cycle::{best_loop, estimate_period, half_range, tile};
@@ -36,20 +39,8 @@ pub const AMPLITUDE_TOLERANCE: f64 = 0.15;
 pub const SETTLE_STRIDES: f64 = 2.0;
 /// Samples of a time-normalised cycle.
 pub const PHASES: usize = 100;
-/// A foot point is on the ground when it is at most this high above its
-/// floor (the [`FLOOR_QUANTILE`] of its heights in the recorded training trials), mm.
-pub const CONTACT_MM: f64 = 10.0;
 /// Largest slide of a foot on the ground during one stance, mm.
 pub const SLIDE_MM: f64 = 20.0;
-/// A foot point's floor: this quantile of its heights over the recorded
-/// training trials (the lowest would be a glitch's).
-pub const FLOOR_QUANTILE: f64 = 0.05;
-/// The shortest stance counted, seconds (a touch shorter than this is not a stance).
-pub const MIN_STANCE_S: f64 = 0.1;
-/// The point of each foot that bears the weight through a stance: the end
-/// of its `foot` bone, the ball (a toe's tip passes within a centimetre of
-/// the floor in a walking swing).
-pub const FEET: [&str; 2] = ["lfoot", "rfoot"];
 
 /// The robot's command rate, Hz.
 pub const ROBOT_RATE_HZ: f64 = 1000.0;
@@ -500,61 +491,6 @@ fn own_orbit(y: &[f64], d: usize, t: &Teacher, reference: usize) -> Option<Vec<f
 /// reads it.
 fn as_motion(m: &TrainedCpg, y_units: &[f64]) -> Result<cpg_mocap::Motion> {
     Ok(cpg_mocap::Motion::new(crate::run::mocap_channels(m)?, y_units.to_vec(), m.provenance.sample_rate_hz)?)
-}
-
-/// The largest slide of a foot on the ground in frames `from..to` of
-/// `pos` (world positions, mm, y up): a foot point is on the ground while
-/// within [`CONTACT_MM`] of its floor (`floors`, one per point of [`FEET`]);
-/// during each stance of at least [`MIN_STANCE_S`], its
-/// horizontal distance from where it landed. The worst over the points, mm
-/// (0 when none lands).
-pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, floors: &[f64]) -> f64 {
-    let n = pos.names.len();
-    let to = to.min(pos.n_frames());
-    let min_frames = ((MIN_STANCE_S * pos.sample_rate_hz).round() as usize).max(2);
-    let mut worst: f64 = 0.0;
-    for (name, &floor) in FEET.iter().zip(floors) {
-        let Some(i) = pos.point_index(name) else { continue };
-        let at = |k: usize| pos.points_mm[k * n + i];
-        let mut k = from;
-        while k < to {
-            if at(k)[1] > floor + CONTACT_MM {
-                k += 1;
-                continue;
-            }
-            let start = k;
-            while k < to && at(k)[1] <= floor + CONTACT_MM {
-                k += 1;
-            }
-            if k - start >= min_frames {
-                let p0 = at(start);
-                let slide = (start..k)
-                    .map(|j| {
-                        let p = at(j);
-                        ((p[0] - p0[0]).powi(2) + (p[2] - p0[2]).powi(2)).sqrt()
-                    })
-                    .fold(0.0, f64::max);
-                worst = worst.max(slide);
-            }
-        }
-    }
-    worst
-}
-
-/// The floor of each point of [`FEET`]: the [`FLOOR_QUANTILE`]
-/// of its heights over every recorded rhythm trial of `positions`, mm.
-fn floors(positions: &[cpg_mocap::Positions]) -> Vec<f64> {
-    FEET.iter()
-        .map(|name| {
-            let mut h: Vec<f64> = positions
-                .iter()
-                .filter_map(|p| p.point_index(name).map(|i| (p, i)))
-                .flat_map(|(p, i)| (0..p.n_frames()).map(move |k| p.points_mm[k * p.names.len() + i][1]))
-                .collect();
-            h.sort_by(f64::total_cmp);
-            h.get(((FLOOR_QUANTILE * h.len() as f64) as usize).min(h.len().saturating_sub(1))).copied().unwrap_or(0.0)
-        })
-        .collect()
 }
 
 /// Labelled values (a trial's name and its figure).
@@ -1090,7 +1026,7 @@ impl BodyResult {
             ],
             self.part_verdict(
                 |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),
-                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding more than {SLIDE_MM} mm during a stance (on the ground: within {CONTACT_MM} mm of its floor, the 5 % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its root travelling)", self.test.ramp_s, self.test.stay_s),
+                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding more than {SLIDE_MM} mm during a stance (on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its root travelling)", self.test.ramp_s, self.test.stay_s, FLOOR_QUANTILE * 100.0),
             ),
         ));
         claims.push(claim(

@@ -134,19 +134,27 @@ fn trainers(s: &mut Section, rs: &[&BodyResult]) {
     if rs.len() < 2 {
         return;
     }
+    // The seeds every readout ran.
+    let common: Vec<u64> = rs
+        .iter()
+        .map(|r| r.seeds.iter().map(|s| s.model.seed).collect::<Vec<_>>())
+        .reduce(|a, b| a.into_iter().filter(|x| b.contains(x)).collect())
+        .unwrap_or_default();
     let rows: Vec<Vec<String>> = rs
         .iter()
         .map(|r| {
-            let n = r.seeds.len();
-            let count = |f: &dyn Fn(&BodySeed) -> bool| format!("{} of {n}", r.seeds.iter().filter(|s| f(s)).count());
+            let all = r.seeds.len();
+            let seeds: Vec<&BodySeed> = r.seeds.iter().filter(|s| common.contains(&s.model.seed)).collect();
+            let n = seeds.len();
+            let count = |f: &dyn Fn(&BodySeed) -> bool| format!("{} of {n}", seeds.iter().filter(|s| f(s)).count());
             let mut row = vec![
                 trainer(r),
                 r.header.n_neurons.to_string(),
-                format!("{:.1} s", r.train_wall_s / n as f64 * r.threads.min(n).max(1) as f64),
+                format!("{:.1} s", r.train_wall_s / all as f64 * r.threads.min(all).max(1) as f64),
             ];
             row.push(count(&|s| s.stand.passed));
             for k in 0..r.held_out.len() {
-                let e: Vec<f64> = r.seeds.iter().map(|s| s.gaits[k].error).collect();
+                let e: Vec<f64> = seeds.iter().map(|s| s.gaits[k].error).collect();
                 row.push(format!(
                     "{:.2}° ({} within the spread)",
                     crate::stats::median(&e),
@@ -165,7 +173,7 @@ fn trainers(s: &mut Section, rs: &[&BodyResult]) {
     head.push("every switch".into());
     head.push("everything".into());
     let head: Vec<&str> = head.iter().map(String::as_str).collect();
-    s.line("The two readouts on the same data, reservoirs, seeds, validation and test (FORCE's \"penalties\" above are its α: the inverse correlation starts at I / α; training time: the wall time of all seeds over the seeds a thread trained):");
+    s.line(format!("The two readouts on the same data, reservoirs, validation and test, on the seeds both ran ({}; FORCE's \"penalties\" above are its α: the inverse correlation starts at I / α; training time: the wall time of all its seeds over the seeds a thread trained):", seed_list(&common)));
     s.blank();
     s.table(&head, &format!("l{}", "r".repeat(head.len() - 1)), &rows);
 }
@@ -354,4 +362,27 @@ fn robot(s: &mut Section, r: &BodyResult) {
         "lrrrrrr",
         &rows,
     );
+}
+
+/// Seeds in words: "seed 4", "seeds 1–3" (a run of consecutive seeds), or "seeds 1, 3, 8".
+fn seed_list(seeds: &[u64]) -> String {
+    match seeds {
+        [] => "no seed".into(),
+        [one] => format!("seed {one}"),
+        [first, .., last] if seeds.windows(2).all(|w| w[1] == w[0] + 1) => format!("seeds {first}–{last}"),
+        _ => format!("seeds {}", seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::seed_list;
+
+    #[test]
+    fn seeds_read_as_a_run_or_a_list() {
+        assert_eq!(seed_list(&[]), "no seed");
+        assert_eq!(seed_list(&[4]), "seed 4");
+        assert_eq!(seed_list(&[1, 2, 3]), "seeds 1–3");
+        assert_eq!(seed_list(&[1, 3, 8]), "seeds 1, 3, 8");
+    }
 }
