@@ -502,3 +502,42 @@ fn a_simulated_run_is_shown_where_the_physics_put_the_body() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("run.json:2") && err.contains("not a cpg-sim run"), "{err}");
 }
+
+/// A scene's marks (the whole body's state switches) in the browser: a tick
+/// on the slider and a button each; a real click on a button pauses and jumps
+/// there, and the clock names the state the frame is in.
+#[test]
+fn the_marks_on_the_timeline_jump_to_their_moment_and_name_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let asf = std::fs::read(cmu("35.asf")).unwrap();
+    let sk = cpg_mocap::parse_asf("35.asf", &asf).unwrap();
+    let amc = std::fs::read(cmu("35_01.amc")).unwrap();
+    let motion = cpg_mocap::parse_amc("35_01.amc", &amc, &sk, 120.0).unwrap();
+    let figure = cpg_view::Figure::human("recording", &sk, &motion).unwrap();
+    let mut scene = cpg_view::Scene::new("marked", 120.0, vec![figure]).unwrap();
+    scene.marks = vec![
+        cpg_view::Mark { time_s: 1.0, label: "walk".into() },
+        cpg_view::Mark { time_s: 2.0, label: "run".into() },
+    ];
+    let html = dir.path().join("marked.html");
+    std::fs::write(&html, scene.to_html()).unwrap();
+
+    let mut b = Browser::start();
+    b.open(&html);
+    assert_eq!(b.eval("document.querySelectorAll('#ticks option').length"), json!(2));
+    let labels = b.eval("Array.from(document.querySelectorAll('#marks button')).map(x => x.textContent).join('|')");
+    assert_eq!(labels, json!("walk at 1.0 s|run at 2.0 s"));
+    // Before the first mark the clock names no state.
+    b.click("#play");
+    b.eval("(() => { const s = document.getElementById('time'); s.value = 30; s.dispatchEvent(new Event('input')); })()");
+    assert_eq!(b.eval("document.getElementById('clock').textContent"), json!("0.25 s / 2.98 s"));
+    let before = b.screenshot();
+    b.click("#play");
+    b.click("#marks button:nth-child(2)");
+    assert_eq!(b.eval("cpgView.playing"), json!(false), "a jump pauses");
+    assert_eq!(b.eval("cpgView.frame"), json!(240));
+    assert_eq!(b.eval("document.getElementById('clock').textContent"), json!("2.00 s / 2.98 s · run"));
+    assert!(b.screenshot().differ(&before, 0, before.w, 0, before.h) > 200, "the jump did not change the picture");
+    b.key("ArrowLeft", "ArrowLeft", 37);
+    assert_eq!(b.eval("document.getElementById('clock').textContent"), json!("1.99 s / 2.98 s · walk"));
+}
