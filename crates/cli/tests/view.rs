@@ -515,10 +515,8 @@ fn the_marks_on_the_timeline_jump_to_their_moment_and_name_it() {
     let motion = cpg_mocap::parse_amc("35_01.amc", &amc, &sk, 120.0).unwrap();
     let figure = cpg_view::Figure::human("recording", &sk, &motion).unwrap();
     let mut scene = cpg_view::Scene::new("marked", 120.0, vec![figure]).unwrap();
-    scene.marks = vec![
-        cpg_view::Mark { time_s: 1.0, label: "walk".into() },
-        cpg_view::Mark { time_s: 2.0, label: "run".into() },
-    ];
+    scene.marks =
+        vec![cpg_view::Mark { time_s: 1.0, label: "walk".into() }, cpg_view::Mark { time_s: 2.0, label: "run".into() }];
     let html = dir.path().join("marked.html");
     std::fs::write(&html, scene.to_html()).unwrap();
 
@@ -529,7 +527,9 @@ fn the_marks_on_the_timeline_jump_to_their_moment_and_name_it() {
     assert_eq!(labels, json!("walk at 1.0 s|run at 2.0 s"));
     // Before the first mark the clock names no state.
     b.click("#play");
-    b.eval("(() => { const s = document.getElementById('time'); s.value = 30; s.dispatchEvent(new Event('input')); })()");
+    b.eval(
+        "(() => { const s = document.getElementById('time'); s.value = 30; s.dispatchEvent(new Event('input')); })()",
+    );
     assert_eq!(b.eval("document.getElementById('clock').textContent"), json!("0.25 s / 2.98 s"));
     let before = b.screenshot();
     b.click("#play");

@@ -225,6 +225,8 @@ pub struct BodyResult {
     pub recorded_step: f64,
     /// Each recorded training trial's largest foot slide by the same rule, mm (the yardstick of the data).
     pub data_slide_mm: Vec<(String, f64)>,
+    /// The training sequence's own largest foot slide (its blends between states included), mm.
+    pub teacher_slide_mm: Option<f64>,
     /// How the readout was learnt (`ridge`, `FORCE`).
     pub trainer: String,
     /// Seconds the training of every seed took, on the run's threads.
@@ -496,25 +498,33 @@ fn as_motion(m: &TrainedCpg, y_units: &[f64]) -> Result<cpg_mocap::Motion> {
 /// Labelled values (a trial's name and its figure).
 type Labelled = Vec<(String, f64)>;
 
-/// Each recorded rhythm segment of the training data (the posture aside)
-/// with its largest foot slide by [`foot_slide_mm`]'s rule, mm; and the feet's
-/// floors those trials give.
-fn data_slides(c: &Config, prep: &crate::prepare::Prepared, m: &TrainedCpg) -> Result<(Labelled, Vec<f64>)> {
-    let Some(sk) = &prep.skeleton else { return Ok((Vec::new(), vec![0.0; FEET.len()])) };
+/// The feet's yardsticks: each recorded rhythm segment of the training data
+/// (the posture aside) with its largest foot slide by [`foot_slide_mm`]'s
+/// rule, mm; the training sequence's own largest (its blends included); and
+/// the feet's floors the recorded trials give.
+fn data_slides(
+    c: &Config,
+    prep: &crate::prepare::Prepared,
+    m: &TrainedCpg,
+) -> Result<(Labelled, Option<f64>, Vec<f64>)> {
+    let Some(sk) = &prep.skeleton else { return Ok((Vec::new(), None, vec![0.0; FEET.len()])) };
     let rate = c.data.rate_hz;
-    let mut trials = Vec::new();
-    for ((seg, x), cy) in c.data.segments.iter().zip(&prep.segments).zip(&prep.cycles) {
-        if seg.stand {
-            continue;
-        }
+    let positions = |x: &[f64]| -> Result<cpg_mocap::Positions> {
         let mut units = cpg_reservoir::to_units(&m.outputs, x);
         cpg_reservoir::integrate_in_place(&m.outputs, &mut units, rate);
-        trials.push((cy.label.clone(), sk.forward_kinematics(&as_motion(m, &units)?)?));
+        Ok(sk.forward_kinematics(&as_motion(m, &units)?)?)
+    };
+    let mut trials = Vec::new();
+    for ((seg, x), cy) in c.data.segments.iter().zip(&prep.segments).zip(&prep.cycles) {
+        if !seg.stand {
+            trials.push((cy.label.clone(), positions(x)?));
+        }
     }
-    let positions: Vec<cpg_mocap::Positions> = trials.iter().map(|t| t.1.clone()).collect();
-    let floor = floors(&positions);
+    let recorded: Vec<cpg_mocap::Positions> = trials.iter().map(|t| t.1.clone()).collect();
+    let floor = floors(&recorded);
     let slides = trials.iter().map(|(l, p)| (l.clone(), foot_slide_mm(p, 0, p.n_frames(), &floor))).collect();
-    Ok((slides, floor))
+    let taught = positions(&prep.data.train.outputs)?;
+    Ok((slides, Some(foot_slide_mm(&taught, 0, taught.n_frames(), &floor)), floor))
 }
 
 /// Judges the end of the standing run `y` (normalised) against the posture
@@ -842,7 +852,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         .map(|t| channel_steps(&tile(&t.cycle, d, t.cycle.len() / d + 1, 0), d))
         .fold(vec![0.0; d], widest);
     let data_steps = prep.segments.iter().map(|s| channel_steps(s, d)).fold(vec![0.0; d], widest);
-    let (data_slide_mm, floors) = data_slides(c, &prep, first)?;
+    let (data_slide_mm, teacher_slide_mm, floors) = data_slides(c, &prep, first)?;
     let run_s = if opts.quick { b.quick_run_s } else { b.run_s };
     let (schedule, switch_at_s, switch_len_s) = switching(teachers, b);
     let test = Test {
@@ -911,6 +921,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         recorded_step: data_steps.iter().copied().fold(0.0, f64::max),
         data_steps,
         data_slide_mm,
+        teacher_slide_mm,
         train_wall_s,
         trainer: match c.training.trainer {
             crate::config::Trainer::Ridge => "ridge regression".into(),
@@ -1023,7 +1034,10 @@ impl BodyResult {
                 Measure::spread("largest step after a switch, over the channel's largest in the recorded training trials", &col(&|s| s.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max)), "", 2),
                 Measure::spread("largest slide of a foot on the ground", &col(&|s| s.switches.iter().filter_map(|w| w.slide_mm).fold(0.0, f64::max)), "mm", 0),
                 Measure::spread("the same in each recorded training trial", &self.data_slide_mm.iter().map(|x| x.1).collect::<Vec<_>>(), "mm", 0),
-            ],
+            ]
+            .into_iter()
+            .chain(self.teacher_slide_mm.map(|v| Measure::number("in the training sequence itself (its blends between states included)", v, "mm", 0)))
+            .collect(),
             self.part_verdict(
                 |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),
                 format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding more than {SLIDE_MM} mm during a stance (on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its root travelling)", self.test.ramp_s, self.test.stay_s, FLOOR_QUANTILE * 100.0),
