@@ -474,12 +474,11 @@ fn posture_lift_mm(sk: &Skeleton, motion: &Motion, gaits: &[&Motion]) -> Result<
     let pose = fk(&Motion::new(motion.channels().to_vec(), mean, motion.sample_rate_hz())?)?;
     let walked = gaits.iter().map(|m| fk(m)).collect::<std::result::Result<Vec<_>, _>>()?;
     let floors = crate::measure::floors(&walked);
-    let below = crate::measure::FEET
+    Ok(crate::measure::FEET
         .iter()
         .zip(&floors)
         .filter_map(|(name, floor)| pose.point_index(name).map(|i| floor - pose.points_mm[i][1]))
-        .fold(None, |a: Option<f64>, b| Some(a.map_or(b, |a| a.max(b))));
-    Ok(below)
+        .reduce(f64::max))
 }
 
 /// One seamless loop per segment (normalised, rotated to start at the

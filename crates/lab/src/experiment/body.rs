@@ -514,15 +514,16 @@ fn data_slides(
         cpg_reservoir::integrate_in_place(&m.outputs, &mut units, rate);
         Ok(sk.forward_kinematics(&as_motion(m, &units)?)?)
     };
-    let mut trials = Vec::new();
+    let (mut labels, mut recorded) = (Vec::new(), Vec::new());
     for ((seg, x), cy) in c.data.segments.iter().zip(&prep.segments).zip(&prep.cycles) {
         if !seg.stand {
-            trials.push((cy.label.clone(), positions(x)?));
+            labels.push(cy.label.clone());
+            recorded.push(positions(x)?);
         }
     }
-    let recorded: Vec<cpg_mocap::Positions> = trials.iter().map(|t| t.1.clone()).collect();
     let floor = floors(&recorded);
-    let slides = trials.iter().map(|(l, p)| (l.clone(), foot_slide_mm(p, 0, p.n_frames(), &floor))).collect();
+    let slides =
+        labels.into_iter().zip(&recorded).map(|(l, p)| (l, foot_slide_mm(p, 0, p.n_frames(), &floor))).collect();
     let taught = positions(&prep.data.train.outputs)?;
     Ok((slides, Some(foot_slide_mm(&taught, 0, taught.n_frames(), &floor)), floor))
 }
