@@ -593,6 +593,40 @@ pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, floors:
     worst
 }
 
+/// `rel` (positions whose root never travels horizontally) carried along
+/// by the travel its feet imply: at each frame the lower point of [`FEET`]
+/// (above its floor in `floors`), when on the ground (within
+/// [`CONTACT_MM`]), stays where it is until the next frame; with neither
+/// foot on the ground (a run's flight) the figure keeps the last step's
+/// travel. [`foot_slide_mm`] of the result is the slide the legs cause
+/// whatever travel a generator learnt: one foot dragged or pushed while the
+/// other bears the weight.
+pub fn stance_led(rel: &cpg_mocap::Positions, floors: &[f64]) -> cpg_mocap::Positions {
+    let n = rel.names.len();
+    let feet: Vec<(usize, f64)> =
+        FEET.iter().zip(floors).filter_map(|(name, &floor)| rel.point_index(name).map(|i| (i, floor))).collect();
+    let mut out = rel.clone();
+    let (mut shift, mut step) = ([0.0f64; 2], [0.0f64; 2]);
+    for k in 0..rel.n_frames() {
+        for p in &mut out.points_mm[k * n..(k + 1) * n] {
+            p[0] += shift[0];
+            p[2] += shift[1];
+        }
+        if k + 1 == rel.n_frames() {
+            break;
+        }
+        let at = |k: usize, i: usize| rel.points_mm[k * n + i];
+        let lower = feet.iter().map(|&(i, floor)| (i, at(k, i)[1] - floor)).min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((i, h)) = lower
+            && h <= CONTACT_MM
+        {
+            step = [at(k, i)[0] - at(k + 1, i)[0], at(k, i)[2] - at(k + 1, i)[2]];
+        }
+        shift = [shift[0] + step[0], shift[1] + step[1]];
+    }
+    out
+}
+
 /// The floor of each point of [`FEET`]: the [`FLOOR_QUANTILE`]
 /// of its heights over every frame of `positions` (recorded rhythm trials), mm.
 pub fn floors(positions: &[cpg_mocap::Positions]) -> Vec<f64> {
@@ -612,6 +646,38 @@ pub fn floors(positions: &[cpg_mocap::Positions]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two feet (and the root) over `frames`; `feet(k)` gives each foot's
+    /// (x, y) relative to a root that never travels.
+    fn walker(frames: usize, feet: impl Fn(usize) -> [[f64; 2]; 2]) -> cpg_mocap::Positions {
+        let names = vec!["root".to_owned(), FEET[0].to_owned(), FEET[1].to_owned()];
+        let points_mm = (0..frames)
+            .flat_map(|k| {
+                let f = feet(k);
+                [[0.0, 900.0, 0.0], [f[0][0], f[0][1], 0.0], [f[1][0], f[1][1], 0.0]]
+            })
+            .collect();
+        cpg_mocap::Positions { names, points_mm, sample_rate_hz: 100.0 }
+    }
+
+    #[test]
+    fn the_feet_carry_the_figure_and_a_dragged_foot_still_slides() {
+        // The left foot bears the weight and sweeps back 5 mm a frame; the
+        // right swings forward above the ground: led by the feet, nothing slides.
+        let step = walker(40, |k| [[100.0 - 5.0 * k as f64, 0.0], [-100.0 + 10.0 * k as f64, 50.0]]);
+        let led = stance_led(&step, &[0.0, 0.0]);
+        assert!(foot_slide_mm(&led, 0, 40, &[0.0, 0.0]) < 1e-9);
+        assert!((led.points_mm[39 * 3][0] - 5.0 * 39.0).abs() < 1e-9, "the root travelled 195 mm");
+        // A shuffle: both feet on the ground, the right (2 mm higher) pushed
+        // forward 5 mm a frame while the left stays: the right slides 195 mm.
+        let shuffle = walker(40, |k| [[0.0, 0.0], [5.0 * k as f64, 2.0]]);
+        let led = stance_led(&shuffle, &[0.0, 0.0]);
+        assert!((foot_slide_mm(&led, 0, 40, &[0.0, 0.0]) - 195.0).abs() < 1e-9);
+        // In a flight the figure keeps its last step's travel.
+        let flight = walker(20, |k| [[-3.0 * k as f64, if k < 10 { 0.0 } else { 80.0 }], [0.0, 80.0]]);
+        let led = stance_led(&flight, &[0.0, 0.0]);
+        assert!((led.points_mm[19 * 3][0] - 3.0 * 19.0).abs() < 1e-9);
+    }
 
     #[test]
     fn a_run_that_returns_and_leaves_again_has_not_recovered() {

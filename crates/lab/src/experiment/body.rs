@@ -23,7 +23,7 @@ use crate::config::{Config, WholeBodySection};
 use crate::error::Result;
 use crate::measure::{
     CONTACT_MM, FEET, FLOOR_QUANTILE, RunSpec, STILL_SWING, WINDOW_S, channel_steps, column, floors, foot_slide_mm,
-    free_runs, max_step, settle_on_orbit,
+    free_runs, max_step, settle_on_orbit, stance_led,
 };
 use crate::schedule::ControlSchedule;
 use crate::stats::{Proportion, at_limit, median};
@@ -183,6 +183,10 @@ pub struct BodySwitch {
     pub step_channel: String,
     /// The largest slide of a foot on the ground from the switch to the next, mm (`None`: no skeleton).
     pub slide_mm: Option<f64>,
+    /// The same with the figure carried instead by the travel its feet imply
+    /// ([`stance_led`], the lower foot on the ground kept still): the slide
+    /// the legs themselves make, one foot dragged while the other bears the weight, mm.
+    pub legs_slide_mm: Option<f64>,
     /// Settled within the strides, no step beyond the data's.
     pub passed: bool,
     /// Decided by less than the printed digits.
@@ -702,6 +706,19 @@ impl Test<'_> {
             Some(sk) => Some(sk.forward_kinematics(&as_motion(m, &units)?)?),
             None => None,
         };
+        // The same motion with its root held still horizontally, carried by its feet.
+        let legs = match &self.skeleton {
+            Some(sk) => {
+                let mut still = units.clone();
+                for (c, o) in m.outputs.iter().enumerate() {
+                    if o.integrates().is_some() {
+                        still.iter_mut().skip(c).step_by(d).for_each(|v| *v = 0.0);
+                    }
+                }
+                Some(stance_led(&sk.forward_kinematics(&as_motion(m, &still)?)?, &self.floors))
+            }
+            None => None,
+        };
         let stand = judge_stand(
             m,
             &ys[self.stand],
@@ -719,8 +736,9 @@ impl Test<'_> {
         // Each state's own orbit: where the generator settles with those inputs held.
         let orbits: Vec<Option<Vec<f64>>> =
             self.teachers.iter().zip(&ys).map(|(t, y)| own_orbit(y, d, t, self.reference)).collect();
-        let switches: Vec<BodySwitch> =
-            (0..self.switch_at_s.len()).map(|s| self.switch(m, &sw, &orbits, feet.as_ref(), s)).collect();
+        let switches: Vec<BodySwitch> = (0..self.switch_at_s.len())
+            .map(|s| self.switch(m, &sw, &orbits, [feet.as_ref(), legs.as_ref()], s))
+            .collect();
         let mut parts = vec![(stand.passed, stand.at_limit)];
         parts.extend(gaits.iter().map(|g| (g.passed, g.at_limit)));
         parts.extend(switches.iter().map(|s| (s.passed, s.at_limit)));
@@ -735,7 +753,7 @@ impl Test<'_> {
         m: &TrainedCpg,
         sw: &[f64],
         orbits: &[Option<Vec<f64>>],
-        feet: Option<&cpg_mocap::Positions>,
+        [feet, legs]: [Option<&cpg_mocap::Positions>; 2],
         s: usize,
     ) -> BodySwitch {
         let (b, d, rate, teachers) = (self.b, self.d, self.rate, self.teachers);
@@ -756,6 +774,7 @@ impl Test<'_> {
             .fold((0, 0.0), |w, x| if x.1 > w.1 { x } else { w });
         let limit = SETTLE_STRIDES * stride_s;
         let slide_mm = feet.map(|p| foot_slide_mm(p, self.at(start), self.at(end), &self.floors));
+        let legs_slide_mm = legs.map(|p| foot_slide_mm(p, self.at(start), self.at(end), &self.floors));
         let parts = [
             (settle_s.is_some_and(|v| v <= limit), settle_s.is_some_and(|v| at_limit(v, limit, 2))),
             (step_ratio <= 1.0, at_limit(step_ratio, 1.0, 2)),
@@ -772,6 +791,7 @@ impl Test<'_> {
             step_ratio,
             step_channel: m.outputs[step_channel].name.clone(),
             slide_mm,
+            legs_slide_mm,
             passed,
             at_limit: fragile,
         }
@@ -1038,6 +1058,7 @@ impl BodyResult {
             ]
             .into_iter()
             .chain(self.teacher_slide_mm.map(|v| Measure::number("in the training sequence itself (its blends between states included)", v, "mm", 0)))
+            .chain(std::iter::once(Measure::spread("the generator's largest with its figure carried instead by the travel that keeps its weight-bearing foot still (the lower foot on the ground): what no such travel removes", &col(&|s| s.switches.iter().filter_map(|w| w.legs_slide_mm).fold(0.0, f64::max)), "mm", 0)))
             .collect(),
             self.part_verdict(
                 |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),

@@ -212,14 +212,14 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
                 ));
             }
             v.push(format!(
-                "{}; {:.2}; {:.0} mm{}",
+                "{}; {:.2}; {}{}",
                 sd.switches
                     .iter()
                     .map(|w| w.settle_s.map_or("never".into(), |x| format!("{:.2}", x / w.stride_s)))
                     .collect::<Vec<_>>()
                     .join(", "),
                 sd.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max),
-                sd.switches.iter().filter_map(|w| w.slide_mm).fold(0.0, f64::max),
+                slides(&sd.switches),
                 if sd.switches.iter().all(|w| w.passed) { "" } else { " ✗" }
             ));
             v.push(format!("{}{}", yes(sd.passed), if sd.at_limit { " (at the limit)" } else { "" }));
@@ -227,7 +227,7 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
         })
         .collect();
     s.line(format!(
-        "Per seed, {} (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3})):",
+        "Per seed, {} (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3}); the foot slide of each switch in order, the largest of either foot during one stance from the ramp's start to the next switch, and, feet-led, the same with the figure carried instead by the travel that keeps its weight-bearing foot (the lower on the ground) still: what no such travel removes):",
         trainer(r),
         r.data_steps.iter().copied().filter(|v| *v > 1e-9).fold(f64::INFINITY, f64::min),
         r.recorded_step,
@@ -365,6 +365,19 @@ fn robot(s: &mut Section, r: &BodyResult) {
 }
 
 /// Seeds in words: "seed 4", "seeds 1–3" (a run of consecutive seeds), or "seeds 1, 3, 8".
+/// Each switch's foot slide in order, then each with the figure carried
+/// instead by the travel its feet imply (`540, 71 mm (feet-led: 216, 0)`);
+/// `no feet` when the model has no skeleton to find them.
+fn slides(switches: &[BodySwitch]) -> String {
+    if switches.iter().all(|w| w.slide_mm.is_none()) {
+        return "no feet".into();
+    }
+    let each = |f: fn(&BodySwitch) -> Option<f64>| {
+        switches.iter().map(|w| f(w).map_or("—".into(), |v| format!("{v:.0}"))).collect::<Vec<String>>().join(", ")
+    };
+    format!("{} mm (feet-led: {})", each(|w| w.slide_mm), each(|w| w.legs_slide_mm))
+}
+
 fn seed_list(seeds: &[u64]) -> String {
     match seeds {
         [] => "no seed".into(),
@@ -376,7 +389,31 @@ fn seed_list(seeds: &[u64]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::seed_list;
+    use super::{BodySwitch, seed_list, slides};
+
+    fn switch(slide_mm: Option<f64>) -> BodySwitch {
+        BodySwitch {
+            from: "stand".into(),
+            to: "walk".into(),
+            at_s: 18.0,
+            settle_s: Some(0.1),
+            stride_s: 1.1,
+            max_step: 0.1,
+            step_ratio: 0.9,
+            step_channel: "lfemur.rx".into(),
+            slide_mm,
+            legs_slide_mm: slide_mm.map(|v| v / 2.0),
+            passed: false,
+            at_limit: false,
+        }
+    }
+
+    #[test]
+    fn each_switch_names_its_own_slide() {
+        let each = [switch(Some(540.4)), switch(Some(71.0)), switch(None), switch(Some(9.6))];
+        assert_eq!(slides(&each), "540, 71, —, 10 mm (feet-led: 270, 36, —, 5)");
+        assert_eq!(slides(&[switch(None), switch(None)]), "no feet");
+    }
 
     #[test]
     fn seeds_read_as_a_run_or_a_list() {
