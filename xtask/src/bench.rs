@@ -46,8 +46,8 @@ pub struct Args {
     #[arg(long, default_value_t = BASELINE_STEP_US, value_name = "µs")]
     baseline_step_us: f64,
     /// Leave out the timed full evaluation (`cargo xtask evaluate` with 10
-    /// seeds everywhere, the longest part of the bench: 17 minutes on a
-    /// two-core AVX2 machine).
+    /// seeds everywhere, the longest part of the bench: 16 minutes on a
+    /// two-core AVX-512 machine with the whole body, longer on AVX2).
     #[arg(long)]
     no_evaluate: bool,
 }
