@@ -593,34 +593,41 @@ pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, floors:
     worst
 }
 
-/// `rel` (positions whose root never travels horizontally) carried along
-/// by the travel its feet imply: at each frame the lower point of [`FEET`]
-/// (above its floor in `floors`), when on the ground (within
-/// [`CONTACT_MM`]), stays where it is until the next frame; with neither
-/// foot on the ground (a run's flight) the figure keeps the last step's
-/// travel. [`foot_slide_mm`] of the result is the slide the legs cause
-/// whatever travel a generator learnt: one foot dragged or pushed while the
-/// other bears the weight.
-pub fn stance_led(rel: &cpg_mocap::Positions, floors: &[f64]) -> cpg_mocap::Positions {
-    let n = rel.names.len();
+/// `pos` (world positions, mm) carried by the travel its feet imply instead
+/// of its root's own: at each frame the lower point of [`FEET`] (above its
+/// floor in `floors`), when on the ground (within [`CONTACT_MM`]), stays
+/// where it is until the next frame; with neither foot on the ground (a
+/// run's flight) the figure keeps the last step's travel. The root's height
+/// and the figure's start are kept. [`foot_slide_mm`] of the result is the
+/// slide the legs cause whatever travel a generator learnt: one foot dragged
+/// or pushed while the other bears the weight.
+pub fn stance_led(pos: &cpg_mocap::Positions, floors: &[f64]) -> cpg_mocap::Positions {
+    let n = pos.names.len();
     let feet: Vec<(usize, f64)> =
-        FEET.iter().zip(floors).filter_map(|(name, &floor)| rel.point_index(name).map(|i| (i, floor))).collect();
-    let mut out = rel.clone();
-    let (mut shift, mut step) = ([0.0f64; 2], [0.0f64; 2]);
-    for k in 0..rel.n_frames() {
-        for p in &mut out.points_mm[k * n..(k + 1) * n] {
-            p[0] += shift[0];
-            p[2] += shift[1];
+        FEET.iter().zip(floors).filter_map(|(name, &floor)| pos.point_index(name).map(|i| (i, floor))).collect();
+    // A point relative to the root's horizontal place (the root's own travel taken out).
+    let root = pos.point_index("root");
+    let rel = |k: usize, i: usize| {
+        let (p, r) = (pos.points_mm[k * n + i], root.map_or([0.0; 3], |r| pos.points_mm[k * n + r]));
+        [p[0] - r[0], p[1], p[2] - r[2]]
+    };
+    let mut out = pos.clone();
+    let start = root.map_or([0.0; 3], |r| pos.points_mm[r]);
+    let (mut shift, mut step) = ([start[0], start[2]], [0.0f64; 2]);
+    for k in 0..pos.n_frames() {
+        for (i, p) in out.points_mm[k * n..(k + 1) * n].iter_mut().enumerate() {
+            let r = rel(k, i);
+            *p = [r[0] + shift[0], r[1], r[2] + shift[1]];
         }
-        if k + 1 == rel.n_frames() {
+        if k + 1 == pos.n_frames() {
             break;
         }
-        let at = |k: usize, i: usize| rel.points_mm[k * n + i];
-        let lower = feet.iter().map(|&(i, floor)| (i, at(k, i)[1] - floor)).min_by(|a, b| a.1.total_cmp(&b.1));
+        let lower = feet.iter().map(|&(i, floor)| (i, rel(k, i)[1] - floor)).min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((i, h)) = lower
             && h <= CONTACT_MM
         {
-            step = [at(k, i)[0] - at(k + 1, i)[0], at(k, i)[2] - at(k + 1, i)[2]];
+            let (a, b) = (rel(k, i), rel(k + 1, i));
+            step = [a[0] - b[0], a[2] - b[2]];
         }
         shift = [shift[0] + step[0], shift[1] + step[1]];
     }
@@ -648,13 +655,14 @@ mod tests {
     use super::*;
 
     /// Two feet (and the root) over `frames`; `feet(k)` gives each foot's
-    /// (x, y) relative to a root that never travels.
+    /// (x, y) relative to the root, which travels 7 mm a frame of its own
+    /// (a travel `stance_led` replaces).
     fn walker(frames: usize, feet: impl Fn(usize) -> [[f64; 2]; 2]) -> cpg_mocap::Positions {
         let names = vec!["root".to_owned(), FEET[0].to_owned(), FEET[1].to_owned()];
         let points_mm = (0..frames)
             .flat_map(|k| {
-                let f = feet(k);
-                [[0.0, 900.0, 0.0], [f[0][0], f[0][1], 0.0], [f[1][0], f[1][1], 0.0]]
+                let (f, x) = (feet(k), 7.0 * k as f64);
+                [[x, 900.0, 0.0], [x + f[0][0], f[0][1], 0.0], [x + f[1][0], f[1][1], 0.0]]
             })
             .collect();
         cpg_mocap::Positions { names, points_mm, sample_rate_hz: 100.0 }

@@ -706,19 +706,8 @@ impl Test<'_> {
             Some(sk) => Some(sk.forward_kinematics(&as_motion(m, &units)?)?),
             None => None,
         };
-        // The same motion with its root held still horizontally, carried by its feet.
-        let legs = match &self.skeleton {
-            Some(sk) => {
-                let mut still = units.clone();
-                for (c, o) in m.outputs.iter().enumerate() {
-                    if o.integrates().is_some() {
-                        still.iter_mut().skip(c).step_by(d).for_each(|v| *v = 0.0);
-                    }
-                }
-                Some(stance_led(&sk.forward_kinematics(&as_motion(m, &still)?)?, &self.floors))
-            }
-            None => None,
-        };
+        // The same motion carried by its feet instead of its learnt travel.
+        let legs = feet.as_ref().map(|p| stance_led(p, &self.floors));
         let stand = judge_stand(
             m,
             &ys[self.stand],

@@ -364,7 +364,6 @@ fn robot(s: &mut Section, r: &BodyResult) {
     );
 }
 
-/// Seeds in words: "seed 4", "seeds 1–3" (a run of consecutive seeds), or "seeds 1, 3, 8".
 /// Each switch's foot slide in order, then each with the figure carried
 /// instead by the travel its feet imply (`540, 71 mm (feet-led: 216, 0)`);
 /// `no feet` when the model has no skeleton to find them.
@@ -378,6 +377,7 @@ fn slides(switches: &[BodySwitch]) -> String {
     format!("{} mm (feet-led: {})", each(|w| w.slide_mm), each(|w| w.legs_slide_mm))
 }
 
+/// Seeds in words: "seed 4", "seeds 1–3" (a run of consecutive seeds), or "seeds 1, 3, 8".
 fn seed_list(seeds: &[u64]) -> String {
     match seeds {
         [] => "no seed".into(),
