@@ -32,13 +32,16 @@ pub fn venv() -> anyhow::Result<std::path::PathBuf> {
 /// Builds the package's wheel (and the `cpg` command its tests compare
 /// with) and installs it into the environment; returns the environment's
 /// python. The wheel is built by maturin in the workspace's target directory
-/// and release profile, so it reuses what `cargo xtask` and the tests
-/// already compiled.
+/// and release profile, so it reuses what the tests already compiled (see
+/// the feature pins in crates/python/Cargo.toml).
 pub fn install() -> anyhow::Result<std::path::PathBuf> {
     let venv = venv()?;
     let py = venv.join("bin").join("python");
     let venv_dir = venv.display().to_string();
-    cmd("cargo", &["build", "--release", "--quiet", "-p", "cpg-cli"], &[])?;
+    // The `cpg` command as the workspace's tests build it: built alone
+    // (`-p cpg-cli`) its dependencies would resolve other features and
+    // compile a second time.
+    cmd("cargo", &["test", "--release", "--quiet", "--workspace", "--no-run"], &[])?;
     let wheels = crate::root().join("target").join("wheels");
     let _ = std::fs::remove_dir_all(&wheels);
     let maturin = venv.join("bin").join("maturin").display().to_string();
