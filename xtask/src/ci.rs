@@ -179,7 +179,9 @@ fn run_steps(times: &mut Vec<(&'static str, f64)>) -> anyhow::Result<()> {
     step("test (build and run)", &mut || test(&[]))?;
     step("python (wheel and pytest)", &mut crate::python::run)?;
     // A fixed seed: the same inputs on every CI run from a fresh clone.
-    step("fuzz (build and smoke run)", &mut || crate::fuzz::run(CI_FUZZ_SECONDS, &[], Some(1)))
+    step("fuzz (build and smoke run)", &mut || {
+        crate::fuzz::run(CI_FUZZ_SECONDS, &[], Some(1), crate::fuzz::Build::Smoke)
+    })
 }
 
 /// Seconds each fuzz target runs in `cargo xtask ci`: a smoke run (the

@@ -36,14 +36,36 @@ fn host_triple() -> anyhow::Result<String> {
         .context("rustc -vV names no host")
 }
 
+/// How the targets are built.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Build {
+    /// Everything optimised: for runs long enough to search.
+    Release,
+    /// The reservoir crate unoptimised (fuzz/Cargo.toml's `smoke` profile):
+    /// two minutes less to build, for CI's few seconds per target.
+    Smoke,
+}
+
+impl Build {
+    fn profile(self) -> &'static str {
+        match self {
+            Build::Release => "release",
+            Build::Smoke => "smoke",
+        }
+    }
+}
+
 /// Builds every target; returns the directory of the binaries.
-fn build(root: &Path) -> anyhow::Result<PathBuf> {
+fn build(root: &Path, how: Build) -> anyhow::Result<PathBuf> {
     let host = host_triple()?;
     let target_dir = root.join("target/fuzz");
-    eprintln!("$ cargo build --release --manifest-path fuzz/Cargo.toml --target {host} (instrumented for libFuzzer)");
+    let profile = how.profile();
+    eprintln!(
+        "$ cargo build --profile {profile} --manifest-path fuzz/Cargo.toml --target {host} (instrumented for libFuzzer)"
+    );
     // An explicit --target keeps the flags off build scripts and proc macros.
     let status = Command::new("cargo")
-        .args(["build", "--release", "--bins", "--manifest-path", "fuzz/Cargo.toml", "--target", &host])
+        .args(["build", "--profile", profile, "--bins", "--manifest-path", "fuzz/Cargo.toml", "--target", &host])
         .arg("--target-dir")
         .arg(&target_dir)
         .env("RUSTFLAGS", RUSTFLAGS)
@@ -54,7 +76,7 @@ fn build(root: &Path) -> anyhow::Result<PathBuf> {
     if !status.success() {
         bail!("building the fuzz targets failed ({status}); libfuzzer-sys needs a C++ compiler (g++ or clang++)");
     }
-    Ok(target_dir.join(host).join("release"))
+    Ok(target_dir.join(host).join(profile))
 }
 
 /// One target's run: executions, and the inputs it failed on (if any).
@@ -132,7 +154,7 @@ fn tally(root: &Path, target: &str, executions: u64, seconds: u64) -> anyhow::Re
 
 /// Builds the targets and runs each of `targets` (all when empty) for
 /// `seconds`, with libFuzzer's random seed or the one given.
-pub fn run(seconds: u64, targets: &[String], seed: Option<u64>) -> anyhow::Result<()> {
+pub fn run(seconds: u64, targets: &[String], seed: Option<u64>, how: Build) -> anyhow::Result<()> {
     let root = crate::root();
     for t in targets {
         if !TARGETS.contains(&t.as_str()) {
@@ -142,7 +164,7 @@ pub fn run(seconds: u64, targets: &[String], seed: Option<u64>) -> anyhow::Resul
     let chosen: Vec<&str> =
         if targets.is_empty() { TARGETS.to_vec() } else { targets.iter().map(String::as_str).collect() };
     let started = std::time::Instant::now();
-    let bin_dir = build(&root)?;
+    let bin_dir = build(&root, how)?;
     eprintln!("  (building the fuzz targets: {:.1} s)", started.elapsed().as_secs_f64());
     let mut summary = Vec::new();
     let mut failed = Vec::new();

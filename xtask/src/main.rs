@@ -109,7 +109,7 @@ fn main() -> std::process::ExitCode {
         Command::FetchData(args) => fetch::run(&args),
         Command::Ci => ci::run(),
         Command::Test { args } => ci::test(&args),
-        Command::Fuzz { seconds, seed, targets } => fuzz::run(seconds, &targets, seed),
+        Command::Fuzz { seconds, seed, targets } => fuzz::run(seconds, &targets, seed, fuzz::Build::Release),
         Command::Bench(args) => bench::run(&args),
         Command::Train(args) => train::run(&args),
         Command::Python => python::run(),
