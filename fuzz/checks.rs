@@ -77,6 +77,19 @@ pub fn bvh(data: &[u8]) {
     }
 }
 
+/// A URDF: rejected, or a robot whose every joint has a finite interval of
+/// limits, a unit axis and a finite origin, and whose joints can be looked up by name.
+pub fn urdf(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let Ok(r) = cpg_hoap2::Robot::from_urdf_str(text, Path::new("fuzz.urdf")) else { return };
+    for j in &r.joints {
+        assert!(j.lower_rad.is_finite() && j.upper_rad.is_finite() && j.lower_rad < j.upper_rad, "{}", j.name);
+        let n = j.axis.iter().map(|a| a * a).sum::<f64>().sqrt();
+        assert!((n - 1.0).abs() < 1e-9, "{}: axis {:?}", j.name, j.axis);
+        assert!(r.joint(&j.name).is_ok(), "{}", j.name);
+    }
+}
+
 /// A TOML configuration: rejected, or accepted with every checked bound
 /// (the sizes it asks for are what `Config::check` allows).
 pub fn config(data: &[u8]) {

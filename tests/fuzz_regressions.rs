@@ -13,13 +13,14 @@ use std::path::{Path, PathBuf};
 /// A fuzz target's check.
 type Check = fn(&[u8]);
 
-const TARGETS: [(&str, Check); 6] = [
+const TARGETS: [(&str, Check); 7] = [
     ("asf", checks::asf),
     ("amc", checks::amc),
     ("bvh", checks::bvh),
     ("config", checks::config),
     ("model", checks::model),
     ("control_csv", checks::control_csv),
+    ("urdf", checks::urdf),
 ];
 
 fn fuzz_dir() -> PathBuf {
@@ -79,6 +80,10 @@ fn seeds_are_valid_inputs() {
     for p in inputs("seeds", "control_csv") {
         let text = std::fs::read_to_string(&p).unwrap();
         cpg_lab::ControlSchedule::parse_csv(&text, &p, &names).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    }
+    for p in inputs("seeds", "urdf") {
+        let text = std::fs::read_to_string(&p).unwrap();
+        cpg_hoap2::Robot::from_urdf_str(&text, &p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     }
 }
 

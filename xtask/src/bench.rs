@@ -719,7 +719,7 @@ fn build_cli() -> anyhow::Result<PathBuf> {
         .status()
         .context("building cpg")?;
     ensure!(st.success(), "building cpg failed ({st})");
-    let exe = crate::root().join("target/release").join(format!("cpg{}", std::env::consts::EXE_SUFFIX));
+    let exe = crate::release_binary("cpg");
     ensure!(exe.is_file(), "{} is missing after the build", exe.display());
     Ok(exe)
 }

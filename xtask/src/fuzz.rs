@@ -15,7 +15,7 @@ use std::process::{Command, Stdio};
 use anyhow::{Context, bail};
 
 /// The targets, as named in `fuzz/Cargo.toml` and `fuzz/checks.rs`.
-pub const TARGETS: [&str; 6] = ["asf", "amc", "bvh", "config", "model", "control_csv"];
+pub const TARGETS: [&str; 7] = ["asf", "amc", "bvh", "config", "model", "control_csv", "urdf"];
 
 /// The instrumentation cargo-fuzz would ask for, without its nightly-only
 /// sanitizer flag: edge coverage with inline 8-bit counters, the PC table

@@ -128,10 +128,56 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-/// The workspace root (the parent of this crate).
+/// The checkout the command runs in: the nearest folder at or above the
+/// current directory whose `Cargo.toml` declares the workspace and which holds
+/// `xtask/` (what cargo itself finds for `cargo xtask`); failing that, the
+/// checkout cargo ran this binary from (`CARGO_MANIFEST_DIR` at run time).
+/// Never the path the binary was compiled in: with one `CARGO_TARGET_DIR`
+/// shared by two clones, that could be the other clone.
 pub fn root() -> PathBuf {
-    let here = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    here.parent().map(PathBuf::from).unwrap_or(here)
+    static ROOT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    ROOT.get_or_init(|| {
+        if let Some(d) = std::env::current_dir().ok().and_then(|cwd| find_root(&cwd)) {
+            return d;
+        }
+        let here = std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("xtask"));
+        here.parent().map(PathBuf::from).unwrap_or(here)
+    })
+    .clone()
+}
+
+/// The nearest folder at or above `start` that is this workspace's checkout.
+fn find_root(start: &std::path::Path) -> Option<PathBuf> {
+    let is_root = |d: &std::path::Path| {
+        d.join("xtask").is_dir()
+            && std::fs::read_to_string(d.join("Cargo.toml")).is_ok_and(|t| t.lines().any(|l| l.trim() == "[workspace]"))
+    };
+    start.ancestors().find(|d| is_root(d)).map(std::path::Path::to_owned)
+}
+
+/// Where cargo puts what it builds for this checkout: `cargo metadata`'s
+/// `target_directory` (so `CARGO_TARGET_DIR` and `build.target-dir` are
+/// honoured), else `target/` in the checkout.
+pub fn target_dir() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| metadata_target_dir(&root(), &[]).unwrap_or_else(|| root().join("target"))).clone()
+}
+
+/// `cargo metadata`'s target directory for the checkout at `root`, with `env` set.
+fn metadata_target_dir(root: &std::path::Path, env: &[(&str, &str)]) -> Option<PathBuf> {
+    let out = std::process::Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .envs(env.iter().copied())
+        .current_dir(root)
+        .output()
+        .ok()?;
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).ok().filter(|_| out.status.success())?;
+    v.get("target_directory").and_then(|t| t.as_str()).map(PathBuf::from)
+}
+
+/// A binary of this workspace built in the release profile (`cpg`).
+pub fn release_binary(name: &str) -> PathBuf {
+    target_dir().join("release").join(format!("{name}{}", std::env::consts::EXE_SUFFIX))
 }
 
 #[cfg(test)]
@@ -185,6 +231,28 @@ mod tests {
             }
         }
         assert!(changed.is_empty(), "help texts changed (UPDATE_SNAPSHOTS=1 to accept): {changed:?}");
+    }
+
+    /// The checkout is the one the command runs in, found from the current
+    /// directory, and built binaries are where cargo puts them: with
+    /// `CARGO_TARGET_DIR` set, not in `target/` of the checkout (the main job
+    /// once failed there after 25 minutes, and with one target directory
+    /// shared by two clones it read and wrote the other clone).
+    #[test]
+    fn the_checkout_is_found_from_where_the_command_runs_and_binaries_where_cargo_builds() {
+        let here = super::root();
+        assert!(here.join("xtask/Cargo.toml").is_file() && here.join("experiments").is_dir(), "{}", here.display());
+        let dir = tempfile::tempdir().unwrap();
+        let other = dir.path().join("other-clone");
+        std::fs::create_dir_all(other.join("xtask")).unwrap();
+        std::fs::create_dir_all(other.join("crates/lab/src")).unwrap();
+        std::fs::write(other.join("Cargo.toml"), "[workspace]\nmembers = []\n").unwrap();
+        assert_eq!(super::find_root(&other.join("crates/lab/src")), Some(other.clone()));
+        assert_eq!(super::find_root(dir.path()), None, "above a checkout there is none");
+        let shared = dir.path().join("shared-target");
+        let t = super::metadata_target_dir(&here, &[("CARGO_TARGET_DIR", shared.to_str().unwrap())]).unwrap();
+        assert_eq!(t, shared);
+        assert!(super::release_binary("cpg").starts_with(super::target_dir()));
     }
 
     #[test]

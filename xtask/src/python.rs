@@ -76,7 +76,7 @@ pub fn run() -> anyhow::Result<()> {
     // The hand-written stubs must say what the compiled module holds.
     cmd(&py, &["-m", "mypy.stubtest", "cpg._cpg", "--ignore-missing-stub"], &[("VIRTUAL_ENV", venv_dir.as_str())])
         .context("the stubs crates/python/python/cpg/_cpg.pyi disagree with the module (mypy.stubtest)")?;
-    let bin = crate::root().join("target").join("release").join("cpg");
+    let bin = crate::release_binary("cpg");
     let bin = bin.display().to_string();
     cmd(
         &py,

@@ -546,14 +546,20 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // A closed pipe (`cpg inspect … | head`) is not an error.
-            if e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) {
+            // A closed pipe (`cpg generate -o - | head`) is not an error, at whatever depth the
+            // library wrapped it.
+            if broken_pipe(&e) {
                 return ExitCode::SUCCESS;
             }
             eprintln!("error: {}", show(&message(&e)));
             ExitCode::from(2)
         }
     }
+}
+
+/// Whether `e` or one of its causes is a write to a pipe whose reader has gone.
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
 /// Text for the terminal: control characters that a file or joint name may

@@ -58,23 +58,19 @@ fn e1_config(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
     p
 }
 
+/// The edits of experiments/e1.toml that make its model small and quick: 80 neurons, a coarse penalty grid.
+const SMALL: [(&str, &str); 2] = [
+    ("seed = 1\n", "seed = 1\nn_neurons = 80\n"),
+    ("penalty_log10 = { start = 1, step = 0.1, stop = -8 }", "penalty_log10 = { start = 1, step = 1, stop = -8 }"),
+];
+
 /// A small, quick model of the left femur, trained once for these tests.
 fn model() -> &'static Path {
     static MODEL: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
     &MODEL
         .get_or_init(|| {
             let dir = tempfile::tempdir().unwrap();
-            let c = e1_config(
-                dir.path(),
-                "small.toml",
-                &[
-                    ("seed = 1\n", "seed = 1\nn_neurons = 80\n"),
-                    (
-                        "penalty_log10 = { start = 1, step = 0.1, stop = -8 }",
-                        "penalty_log10 = { start = 1, step = 1, stop = -8 }",
-                    ),
-                ],
-            );
+            let c = e1_config(dir.path(), "small.toml", &SMALL);
             let m = dir.path().join("small.cpg");
             let o = cpg(&[OsStr::new("train"), "-c".as_ref(), c.as_os_str(), "-o".as_ref(), m.as_os_str()]);
             assert!(o.status.success(), "{}", stderr(&o));
@@ -444,4 +440,164 @@ fn messages_are_short_clear_and_said_once() {
         &[("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"speed,gait\"]")],
     );
     fails_with(&cpg(&[OsStr::new("train"), "-c".as_ref(), c.as_os_str()]), &["data.controls[0]", "without commas"]);
+}
+
+// Round three of the audit: what the simulator era's surfaces and a new user hit first.
+
+/// A URDF nested 20,000 elements deep overflowed the stack; it is refused
+/// with the file and the line where the nesting passes the bound.
+#[test]
+fn a_deeply_nested_urdf_is_refused_not_a_stack_overflow() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("deep.urdf");
+    std::fs::write(
+        &urdf,
+        format!("<robot name=\"r\">\n{}{}</robot>", "<link name=\"a\">".repeat(20_000), "</link>".repeat(20_000)),
+    )
+    .unwrap();
+    let out = dir.path().join("h.csv");
+    let o = cpg(&[
+        OsStr::new("hoap2"),
+        "--model".as_ref(),
+        model().as_os_str(),
+        "--urdf".as_ref(),
+        urdf.as_os_str(),
+        "--seconds".as_ref(),
+        "1".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    fails_with(&o, &["deep.urdf", "line 2", "nested more than 64 deep"]);
+    assert!(!out.exists());
+}
+
+/// An ASF of 100,000 bones parsed for minutes (no cap, a quadratic check);
+/// the bone past the cap is refused where it is.
+#[test]
+fn an_asf_beyond_the_bone_cap_is_refused_where_it_passes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let asf = dir.path().join("big.asf");
+    let mut s = String::from(
+        ":version 1.10\n:name big\n:units\n  mass 1.0\n  length 0.45\n  angle deg\n:root\n  order TX TY TZ RX RY RZ\n  axis XYZ\n  position 0 0 0\n  orientation 0 0 0\n:bonedata\n",
+    );
+    for i in 0..100_000 {
+        s.push_str(&format!(
+            "  begin\n    id {}\n    name b{i}\n    direction 0 1 0\n    length 1\n    axis 0 0 0 XYZ\n  end\n",
+            i + 1
+        ));
+    }
+    std::fs::write(&asf, s).unwrap();
+    fails_with(&cpg(&[OsStr::new("inspect"), asf.as_os_str()]), &["big.asf:70013", "at most 10000 bones"]);
+}
+
+/// `cpg view --seconds 86400` computed three minutes of free run before
+/// refusing the page's size; it is refused first, saying how long a page of
+/// this model can be.
+#[test]
+fn a_page_too_long_is_refused_before_the_free_run_saying_how_long_one_can_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.html");
+    let o = cpg(&[
+        OsStr::new("view"),
+        "--model".as_ref(),
+        model().as_os_str(),
+        "--seconds".as_ref(),
+        "86400".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    fails_with(&o, &["86400 s", "at most", "s of this model"]);
+    assert!(!out.exists());
+}
+
+/// Control lines faster than the ticks (`yes 1,0 | cpg stream --rate-hz 1`)
+/// were queued without bound (gigabytes, ticks late by tens of seconds):
+/// only the newest values are kept, and the report says how many were replaced.
+#[test]
+fn stream_keeps_only_the_newest_controls_in_bounded_memory() {
+    use std::io::Write;
+    // A small model with one control input, `u`.
+    let dir = tempfile::tempdir().unwrap();
+    let with_u = [
+        ("channels = [\"lfemur.rx\"]", "channels = [\"lfemur.rx\"]\ncontrols = [\"u\"]"),
+        ("label = \"walk (35_01)\"", "label = \"walk (35_01)\"\ncontrols = [1.0]"),
+    ];
+    let c = e1_config(dir.path(), "u.toml", &[&with_u[..], &SMALL[..]].concat());
+    let m = dir.path().join("u.cpg");
+    let o = cpg(&[
+        OsStr::new("train"),
+        "-c".as_ref(),
+        c.as_os_str(),
+        "-o".as_ref(),
+        m.as_os_str(),
+        "--allow-unstable".as_ref(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cpg"))
+        .args([OsStr::new("stream"), "--model".as_ref(), m.as_os_str(), "--rate-hz".as_ref(), "2".as_ref()])
+        .args(["--seconds", "3"])
+        .env("CPG_REPORT_PEAK_RSS", "1")
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || {
+        let chunk = "u=1\n".repeat(4096);
+        while stdin.write_all(chunk.as_bytes()).is_ok() {}
+    });
+    let o = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(String::from_utf8_lossy(&o.stdout).lines().count(), 1 + 6, "a header and one line per tick");
+    let peak_mb: f64 = err
+        .lines()
+        .find_map(|l| l.split("peak resident memory: ").nth(1))
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no peak memory line in: {err}"));
+    assert!(peak_mb < 64.0, "{peak_mb} MB: {err}");
+    assert!(err.contains("control line(s) were replaced by newer ones"), "{err}");
+}
+
+/// `cpg generate -o - | head` said "error: -: Broken pipe" and exited 2; a
+/// reader that has gone is not an error.
+#[test]
+fn a_closed_pipe_ends_quietly() {
+    use std::io::BufRead;
+    for args in [
+        vec![OsStr::new("generate"), "-m".as_ref(), model().as_os_str(), "--seconds".as_ref(), "600".as_ref()],
+        vec![
+            OsStr::new("fk"),
+            cmu("35_01.amc").into_os_string().leak(),
+            "--skeleton".as_ref(),
+            cmu("35.asf").into_os_string().leak(),
+        ],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_cpg"))
+            .args(&args)
+            .args(["-o", "-"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+        assert!(!first.is_empty());
+        let o = child.wait_with_output().unwrap();
+        let err = stderr(&o);
+        assert!(o.status.success() && !err.contains("error"), "{args:?}: exit {:?}: {err}", o.status.code());
+    }
+}
+
+/// A misspelt channel gets the closest name as a hint.
+#[test]
+fn a_misspelt_channel_gets_the_closest_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = e1_config(dir.path(), "typo.toml", &[("channels = [\"lfemur.rx\"]", "channels = [\"lfemr.rx\"]")]);
+    let o =
+        cpg(&[OsStr::new("train"), "-c".as_ref(), c.as_os_str(), "-o".as_ref(), dir.path().join("m.cpg").as_os_str()]);
+    fails_with(&o, &["'lfemr.rx' is not a channel of the motion (did you mean 'lfemur.rx'?)"]);
 }

@@ -51,8 +51,13 @@ struct Browser {
 
 impl Browser {
     fn start() -> Browser {
+        Browser::start_with(&["--hide-scrollbars"])
+    }
+
+    /// A browser with `extra` flags beside the ones every test uses.
+    fn start_with(extra: &[&str]) -> Browser {
         let profile = tempfile::tempdir().unwrap();
-        let flags = [
+        let mut flags = vec![
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
@@ -61,9 +66,9 @@ impl Browser {
             "--disable-sync",
             "--disable-quic",
             "--no-first-run",
-            "--hide-scrollbars",
             "--remote-debugging-pipe",
         ];
+        flags.extend_from_slice(extra);
         // The shell hands our pipes to Chromium as fds 3 and 4.
         let mut child = Command::new("sh")
             .arg("-c")
@@ -139,9 +144,14 @@ impl Browser {
     }
 
     fn open(&mut self, file: &Path) {
+        self.open_at(file, 1300, 800);
+    }
+
+    /// Opens `file` in a window of `width` × `height` CSS pixels.
+    fn open_at(&mut self, file: &Path, width: u32, height: u32) {
         self.call(
             "Emulation.setDeviceMetricsOverride",
-            json!({"width": 1300, "height": 800, "deviceScaleFactor": 1, "mobile": false}),
+            json!({"width": width, "height": height, "deviceScaleFactor": 1, "mobile": false}),
         );
         let url = format!("file://{}", file.canonicalize().unwrap().display());
         self.call("Page.navigate", json!({"url": url}));
@@ -540,4 +550,42 @@ fn the_marks_on_the_timeline_jump_to_their_moment_and_name_it() {
     assert!(b.screenshot().differ(&before, 0, before.w, 0, before.h) > 200, "the jump did not change the picture");
     b.key("ArrowLeft", "ArrowLeft", 37);
     assert_eq!(b.eval("document.getElementById('clock').textContent"), json!("1.99 s / 2.98 s · walk"));
+}
+
+/// At 1200 × 800 (a laptop's window, scrollbars shown) the three panels
+/// stand in one row and play/pause and the time slider are in view without
+/// scrolling; the robot's panel once wrapped to a second row and pushed
+/// them below the fold.
+#[test]
+fn at_1200_by_800_the_panels_stand_in_one_row_and_the_controls_are_in_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("view.html");
+    ok(&cpg(&[
+        OsStr::new("view"),
+        "-m".as_ref(),
+        walk22().as_os_str(),
+        "--seconds".as_ref(),
+        "2".as_ref(),
+        "-o".as_ref(),
+        html.as_os_str(),
+    ]));
+    let mut b = Browser::start_with(&[]);
+    b.open_at(&html, 1200, 800);
+    let tops =
+        b.eval("Array.from(document.querySelectorAll('figure')).map(f => Math.round(f.getBoundingClientRect().top))");
+    let tops: Vec<i64> = tops.as_array().unwrap().iter().map(|v| v.as_i64().unwrap()).collect();
+    assert_eq!(tops.len(), 3);
+    assert!(tops.iter().all(|&t| t == tops[0]), "the panels are on one row: tops {tops:?}");
+    let right = b
+        .eval("Math.max(...Array.from(document.querySelectorAll('figure')).map(f => f.getBoundingClientRect().right))");
+    let width = b.eval("document.documentElement.clientWidth");
+    assert!(right.as_f64().unwrap() <= width.as_f64().unwrap(), "no panel beyond the window: {right} > {width}");
+    for id in ["play", "time", "clock"] {
+        let r = b.eval(&format!("(() => {{ const r = document.getElementById('{id}').getBoundingClientRect(); return [r.top, r.bottom]; }})()"));
+        let (top, bottom) = (r[0].as_f64().unwrap(), r[1].as_f64().unwrap());
+        assert!(top >= 0.0 && bottom <= 800.0, "#{id} is in view without scrolling: {top}..{bottom}");
+    }
+    // The click reaches it: it pauses.
+    b.click("#play");
+    assert_eq!(b.eval("cpgView.playing"), json!(false));
 }

@@ -50,6 +50,14 @@ impl ChannelMap {
     pub fn from_spec(spec: &Path) -> Result<ChannelMap> {
         match spec.to_str().and_then(ChannelMap::builtin) {
             Some(m) => m,
+            None if !spec.exists() && spec.components().count() == 1 && spec.extension().is_none() => {
+                let name = spec.to_string_lossy();
+                Err(crate::Error::Input(format!(
+                    "map '{name}'{}: neither a built-in map ({}) nor a map file (a TSV path)",
+                    cpg_io::did_you_mean(&name, MAPS),
+                    MAPS.join(", ")
+                )))
+            }
             None => ChannelMap::load(spec),
         }
     }

@@ -86,7 +86,7 @@ pub enum Error {
         reason: String,
     },
     /// A joint name that the robot does not have.
-    #[error("unknown joint '{name}'; the robot has: {}", valid.join(", "))]
+    #[error("unknown joint '{name}'{}; the robot has: {}", cpg_io::did_you_mean(name, valid.iter().map(String::as_str)), valid.join(", "))]
     UnknownJoint {
         /// The name.
         name: String,
@@ -146,6 +146,91 @@ fn read_text(path: &Path) -> Result<String> {
     Ok(text.strip_prefix('\u{feff}').map(str::to_owned).unwrap_or(text))
 }
 
+/// The deepest nesting of XML elements a URDF may have (a real one nests
+/// four or five: robot, joint, limit; a Xacro expansion a few more).
+pub const MAX_URDF_DEPTH: usize = 64;
+
+/// Refuses XML whose elements nest deeper than `max`, naming the line where
+/// the bound is crossed. A scan, not a parse: comments, CDATA, processing
+/// instructions and declarations are skipped, quoted attribute values may
+/// hold `>`, and a self-closing element (`<x/>`) does not nest. Whatever the
+/// scan cannot make sense of is left for the XML parser to report.
+pub fn check_nesting(text: &str, max: usize) -> std::result::Result<(), String> {
+    let b = text.as_bytes();
+    let (mut i, mut depth, mut line) = (0usize, 0usize, 1usize);
+    // Skips to just past `end`, counting lines; false when the text ends first.
+    let skip_past = |i: &mut usize, line: &mut usize, end: &[u8]| -> bool {
+        while *i < b.len() {
+            if b[*i..].starts_with(end) {
+                *i += end.len();
+                return true;
+            }
+            *line += usize::from(b[*i] == b'\n');
+            *i += 1;
+        }
+        false
+    };
+    while i < b.len() {
+        match b[i] {
+            b'\n' => {
+                line += 1;
+                i += 1;
+            }
+            b'<' => {
+                let rest = &b[i..];
+                let at = line;
+                if rest.starts_with(b"<!--") {
+                    i += 4;
+                    if !skip_past(&mut i, &mut line, b"-->") {
+                        return Ok(());
+                    }
+                } else if rest.starts_with(b"<![CDATA[") {
+                    i += 9;
+                    if !skip_past(&mut i, &mut line, b"]]>") {
+                        return Ok(());
+                    }
+                } else if rest.starts_with(b"<?") || rest.starts_with(b"<!") {
+                    i += 2;
+                    if !skip_past(&mut i, &mut line, b">") {
+                        return Ok(());
+                    }
+                } else if rest.starts_with(b"</") {
+                    depth = depth.saturating_sub(1);
+                    i += 2;
+                    if !skip_past(&mut i, &mut line, b">") {
+                        return Ok(());
+                    }
+                } else {
+                    // An opening tag: to its `>`, outside quoted values.
+                    i += 1;
+                    let mut quote = None;
+                    while i < b.len() {
+                        let c = b[i];
+                        line += usize::from(c == b'\n');
+                        i += 1;
+                        match quote {
+                            Some(q) if c == q => quote = None,
+                            Some(_) => {}
+                            None if c == b'"' || c == b'\'' => quote = Some(c),
+                            None if c == b'>' => break,
+                            None => {}
+                        }
+                    }
+                    if i >= 2 && b[i - 1] == b'>' && b[i - 2] == b'/' {
+                        continue; // self-closing
+                    }
+                    depth += 1;
+                    if depth > max {
+                        return Err(format!("line {at}: elements nested more than {max} deep (a URDF nests a few)"));
+                    }
+                }
+            }
+            _ => i += 1,
+        }
+    }
+    Ok(())
+}
+
 /// One revolute joint.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
@@ -191,8 +276,11 @@ pub struct Robot {
 }
 
 impl Robot {
-    /// Parses URDF text; `path` names the source in errors.
+    /// Parses URDF text; `path` names the source in errors. Elements nested
+    /// more than [`MAX_URDF_DEPTH`] deep are refused before the XML parser
+    /// (which recurses) sees them.
     pub fn from_urdf_str(text: &str, path: &Path) -> Result<Robot> {
+        check_nesting(text, MAX_URDF_DEPTH).map_err(|reason| Error::Urdf { path: path.to_owned(), reason })?;
         let r = urdf_rs::read_from_string(text)
             .map_err(|e| Error::Urdf { path: path.to_owned(), reason: e.to_string() })?;
         let mut joints = Vec::new();

@@ -205,6 +205,32 @@ fn bad_map_files_and_inputs_are_located_errors() {
     assert!(matches!(Robot::from_urdf_str("<robot", Path::new("x.urdf")), Err(Error::Urdf { .. })));
 }
 
+/// A URDF nested 20,000 elements deep once overflowed the stack (the XML
+/// parser recurses); the nesting is bounded before it parses, and comments,
+/// CDATA, quoted `>` and self-closing elements do not count as nesting.
+#[test]
+fn deeply_nested_urdf_is_an_error_naming_its_line_not_a_crash() {
+    let n = 20_000;
+    let deep = format!("<robot name=\"r\">\n{}{}</robot>", "<link name=\"a\">".repeat(n), "</link>".repeat(n));
+    let e = Robot::from_urdf_str(&deep, Path::new("deep.urdf")).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, Error::Urdf { .. }) && text.contains("deep.urdf") && text.contains("line 2"), "{text}");
+    assert!(text.contains("nested more than 64"), "{text}");
+    // Just within the bound the scan lets the parser decide; flat elements are any number.
+    let ok = format!(
+        "<?xml version=\"1.0\"?><!-- <a><b> --><robot name=\"r\">{}<link name=\"x>y\"/><![CDATA[<<<]]>{}</robot>",
+        "<link name=\"a\"/>".repeat(5000),
+        ""
+    );
+    assert!(cpg_hoap2::check_nesting(&ok, 2).is_ok());
+    let nested = format!("<robot>{}{}</robot>", "<a>".repeat(63), "</a>".repeat(63));
+    assert!(cpg_hoap2::check_nesting(&nested, 64).is_ok());
+    let nested = format!("<robot>{}{}</robot>", "<a>".repeat(64), "</a>".repeat(64));
+    assert!(cpg_hoap2::check_nesting(&nested, 64).is_err());
+    // The project's own URDF is well within it.
+    Robot::from_urdf_file(&asset("hoap2.urdf")).unwrap();
+}
+
 /// Forward kinematics against the reference geometry, and the gait of the mapped 35_01 walk.
 #[test]
 fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {

@@ -276,7 +276,7 @@ fn write_atomic<E: From<Error>>(
     fill: impl FnOnce(&mut dyn Write) -> std::result::Result<(), E>,
 ) -> std::result::Result<(), E> {
     let dir = parent(path);
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = temp_stem(&path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
     remove_stale(dir, &name);
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     pending().push(tmp.clone());
@@ -294,6 +294,28 @@ fn write_atomic<E: From<Error>>(
     }
     pending().retain(|p| p != &tmp);
     result
+}
+
+/// The most bytes of an output's name its temporary's name keeps: with the
+/// dot, the process id and `.tmp`, the temporary's name stays within the 255
+/// bytes file systems allow whenever the output's own name does.
+const TEMP_STEM_BYTES: usize = 200;
+
+/// The part of an output's file name its temporary file is named after: the
+/// name itself, or for a long one its first bytes (on a character boundary)
+/// and a hash of the whole, so that two long names differing only at their
+/// ends get different temporaries.
+fn temp_stem(name: &str) -> String {
+    if name.len() <= TEMP_STEM_BYTES {
+        return name.to_owned();
+    }
+    let mut cut = TEMP_STEM_BYTES - 17;
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    // FNV-1a: stable across runs and builds, unlike the standard hasher.
+    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    format!("{}~{hash:016x}", &name[..cut])
 }
 
 /// Removes `.NAME.PID.tmp` files beside `NAME` whose process no longer runs
@@ -316,10 +338,83 @@ fn remove_stale(dir: &Path, name: &str) {
     }
 }
 
+/// The name among `candidates` closest to `name` in spelling, for an error's
+/// hint ("did you mean …?"): the fewest single-character insertions,
+/// deletions, substitutions or swaps of neighbours, compared without case;
+/// `None` when even the closest needs more than a third of the name's
+/// characters changed (at least 2 allowed), or when it is ambiguous. The one
+/// rule every crate's unknown-name error uses.
+pub fn closest_name<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let a: Vec<char> = name.to_lowercase().chars().collect();
+    let limit = (a.len() / 3).max(2);
+    let mut best: Option<(&str, usize)> = None;
+    let mut tie = false;
+    for c in candidates {
+        let b: Vec<char> = c.to_lowercase().chars().collect();
+        if a.len().abs_diff(b.len()) > limit {
+            continue;
+        }
+        let d = edit_distance(&a, &b);
+        if d > limit {
+            continue;
+        }
+        match best {
+            Some((_, bd)) if d > bd => {}
+            Some((_, bd)) if d == bd => tie = true,
+            _ => {
+                best = Some((c, d));
+                tie = false;
+            }
+        }
+    }
+    best.filter(|_| !tie).map(|(c, _)| c)
+}
+
+/// Optimal string alignment distance (Levenshtein with swaps of neighbours).
+fn edit_distance(a: &[char], b: &[char]) -> usize {
+    let w = b.len() + 1;
+    let mut d = vec![0usize; (a.len() + 1) * w];
+    for i in 0..=a.len() {
+        for j in 0..=b.len() {
+            d[i * w + j] = if i == 0 {
+                j
+            } else if j == 0 {
+                i
+            } else {
+                let cost = usize::from(a[i - 1] != b[j - 1]);
+                let mut v = (d[(i - 1) * w + j] + 1).min(d[i * w + j - 1] + 1).min(d[(i - 1) * w + j - 1] + cost);
+                if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                    v = v.min(d[(i - 2) * w + j - 2] + 1);
+                }
+                v
+            };
+        }
+    }
+    d[a.len() * w + b.len()]
+}
+
+/// `" (did you mean 'X'?)"` when [`closest_name`] finds one, else nothing: the hint as messages append it.
+pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> String {
+    closest_name(name, candidates).map(|c| format!(" (did you mean '{c}'?)")).unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used)]
     use super::*;
+
+    #[test]
+    fn the_closest_name_is_a_typo_away_or_none() {
+        let names = ["lfemur.rx", "rfemur.rx", "ltibia.rx", "root.tx", "u_walk", "u_run"];
+        assert_eq!(closest_name("lfemr.rx", names), Some("lfemur.rx"));
+        assert_eq!(closest_name("LFEMUR.RX", names), Some("lfemur.rx"));
+        assert_eq!(closest_name("ltbiia.rx", names), Some("ltibia.rx"), "a swap of neighbours is one edit");
+        assert_eq!(closest_name("u_wlak", names), Some("u_walk"));
+        assert_eq!(closest_name("xfemur.rx", names), None, "as close to lfemur as to rfemur: no guess");
+        assert_eq!(closest_name("head.rz", names), None, "nothing close");
+        assert_eq!(did_you_mean("u_rn", names), " (did you mean 'u_run'?)");
+        assert_eq!(did_you_mean("zzz", names), "");
+    }
 
     #[test]
     fn paths_are_normalised_lexically() {
@@ -340,6 +435,22 @@ mod tests {
         std::fs::write(&p, b"12345").unwrap();
         assert_eq!(read_bounded(&p, 5).unwrap(), b"12345");
         assert!(read_bounded(&p, 4).is_err());
+    }
+
+    /// A 250-byte output name once gave a temporary name over 255 bytes, so
+    /// the write failed; the temporary's name is bounded, the output keeps its own.
+    #[test]
+    fn a_long_output_name_is_written_whole() {
+        let d = tempfile::tempdir().unwrap();
+        for name in ["a".repeat(250), format!("{}é.csv", "b".repeat(246))] {
+            let p = d.path().join(&name);
+            write_file(&p, b"x").unwrap();
+            assert_eq!(std::fs::read(&p).unwrap(), b"x", "{} bytes", name.len());
+        }
+        let left: Vec<_> = std::fs::read_dir(d.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(left.len(), 2, "no temporary left: {left:?}");
+        assert_ne!(temp_stem(&"c".repeat(300)), temp_stem(&format!("{}d", "c".repeat(299))));
+        assert!(temp_stem(&"é".repeat(150)).len() <= TEMP_STEM_BYTES);
     }
 
     #[test]

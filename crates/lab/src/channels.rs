@@ -100,7 +100,8 @@ pub fn expand_in(entries: &[String], all: &[String]) -> Result<Vec<String>, Stri
         for c in found {
             if !all.contains(&c) {
                 return Err(format!(
-                    "channels[{k}]: '{c}' is not a channel of the motion (a channel is bone.dof, e.g. lfemur.rx; groups: legs, arms, hoap2)"
+                    "channels[{k}]: '{c}' is not a channel of the motion{} (a channel is bone.dof, e.g. lfemur.rx; groups: legs, arms, hoap2)",
+                    cpg_io::did_you_mean(&c, all.iter().map(String::as_str))
                 ));
             }
             if out.contains(&c) {

@@ -70,11 +70,16 @@ pub fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
-/// A configuration from a TOML table; `name` names it in errors, relative
-/// paths are resolved against `base`.
+/// A configuration from a TOML table (a Python dict, the caller's overrides);
+/// `name` names it in errors, relative paths are resolved against `base`.
+/// Errors name the key as the caller wrote it and no line: the text parsed
+/// is this function's, not the caller's.
 pub fn config_from_table(t: &toml::Table, name: &str, base: &Path) -> Result<Config> {
     let text = toml::to_string(t).map_err(|e| Error::Unusable(e.to_string()))?;
-    Config::from_toml(&text, Path::new(name), base)
+    Config::from_toml(&text, Path::new(name), base).map_err(|e| match e {
+        Error::Config { file, field, message, .. } => Error::Config { file, line: None, field, message },
+        other => other,
+    })
 }
 
 /// Whether `name` can be a control input's name (the configuration's rule
@@ -173,7 +178,7 @@ fn fit_config(r: &FitRequest, inner: &[cpg_mocap::Channel], cnames: &[String]) -
         merge(&mut table, over.clone());
     }
     let here = std::env::current_dir().unwrap_or_else(|_| Path::new(".").to_owned());
-    let mut c = config_from_table(&table, "<fit>", &here)?;
+    let mut c = config_from_table(&table, "config", &here)?;
     // Set here, not in the TOML: a seed may be any 64-bit whole number.
     c.reservoir.seed = r.seed;
     Ok(c)

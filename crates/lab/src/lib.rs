@@ -62,12 +62,16 @@ pub use config::Config;
 
 /// Runs `work` on a rayon pool of its own with `threads` threads, so that
 /// every parallel loop inside uses that many and no more, whatever the
-/// global pool holds.
+/// global pool holds. Every thread of the pool carries the calling thread's
+/// watch ([`cpg_reservoir::watch`]), if it has one: cancelling it stops
+/// the free runs, validations and trainings inside at their next check, and
+/// the work returns [`cpg_reservoir::Error::Cancelled`] (in [`Error::Reservoir`]).
 pub fn in_pool<T: Send>(threads: usize, work: impl FnOnce() -> Result<T> + Send) -> Result<T> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build()
-        .map_err(|e| Error::Unusable(format!("a pool of {threads} threads: {e}")))?;
+    let mut builder = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1));
+    if let Some(watch) = cpg_reservoir::watch::current() {
+        builder = builder.start_handler(move |_| cpg_reservoir::watch::set_for_this_thread(Some(watch.clone())));
+    }
+    let pool = builder.build().map_err(|e| Error::Unusable(format!("a pool of {threads} threads: {e}")))?;
     pool.install(work)
 }
 pub use error::{Error, Result};

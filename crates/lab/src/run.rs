@@ -166,13 +166,20 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
     } else {
         // One thread, step by step (the same bits as a batched run, in units:
         // the generator de-normalises and integrates rates), checking the flag.
+        // The thread's watch, if it has one (cpg_reservoir::watch), sees the steps as a batched run's would.
         let cancel = opts.cancel.unwrap_or(&NEVER);
+        let watch = cpg_reservoir::watch::current();
         let mut g = Generator::new(m);
         let mut u = vec![0.0; m.controls.len()];
         let mut y = Vec::with_capacity(steps * d);
         for k in 0..steps {
-            if k % CHECK_EVERY_STEPS == 0 && cancel.load(Ordering::Relaxed) {
-                return Ok(None);
+            if k % CHECK_EVERY_STEPS == 0 {
+                if cancel.load(Ordering::Relaxed) || watch.as_ref().is_some_and(|w| w.cancelled()) {
+                    return Ok(None);
+                }
+                if let Some(w) = &watch {
+                    w.steps.fetch_add(CHECK_EVERY_STEPS.min(steps - k) as u64, Ordering::Relaxed);
+                }
             }
             controls.fill(k, rate_hz, &mut u);
             y.extend_from_slice(g.step(&u)?);

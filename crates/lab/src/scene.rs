@@ -41,6 +41,22 @@ pub fn model_scene(
     n_steps: usize,
     robot: Option<RobotView<'_>>,
 ) -> Result<Scene> {
+    // The scene's size is bounded before the free run: its human figures (teacher and
+    // model) and at least the robot's links, frame by frame.
+    if let Some(asf) = &m.skeleton_asf {
+        let sk =
+            cpg_mocap::parse_asf("the skeleton stored in the model", asf.as_bytes()).map_err(cpg_mocap::Error::from)?;
+        let humans = 1 + usize::from(!m.teachers.is_empty());
+        let points = humans * (sk.bones.len() + 1) + robot.as_ref().map_or(0, |r| r.robot.joints.len() + 1);
+        if cpg_view::check_scene_size(n_steps, points).is_err() {
+            let most_s = (cpg_view::MAX_VALUES / (3 * points.max(1))) as f64 / m.provenance.sample_rate_hz;
+            return Err(Error::Bound(format!(
+                "{n_steps} steps ({:.0} s) of {points} points per frame are more than the {} coordinates a page holds: at most {most_s:.0} s of this model",
+                n_steps as f64 / m.provenance.sample_rate_hz,
+                cpg_view::MAX_VALUES
+            )));
+        }
+    }
     let mut y = free_run(m, controls, n_steps, None)?;
     cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
     cpg_reservoir::integrate_in_place(&m.outputs, &mut y, m.provenance.sample_rate_hz);

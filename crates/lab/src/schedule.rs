@@ -179,7 +179,12 @@ impl ControlSchedule {
             let k = names.iter().position(|n| n == name).ok_or_else(|| {
                 Error::name(
                     name,
-                    format!("'{}' is not a control input; the model's are [{}]", short(name), names.join(", ")),
+                    format!(
+                        "'{}' is not a control input{}; the model's are [{}]",
+                        short(name),
+                        cpg_io::did_you_mean(name, names.iter().map(String::as_str)),
+                        names.join(", ")
+                    ),
                 )
             })?;
             next[k] = finite(value)

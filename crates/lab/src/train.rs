@@ -125,6 +125,25 @@ pub fn train(c: &Config, threads: usize) -> Result<(TrainedCpg, Prepared)> {
     Ok((m, p))
 }
 
+/// The worst best validation score a model may have and still count as
+/// trained: a flat line at the teacher's mean scores 1.
+pub const UNSTABLE_SCORE: f64 = 1.0;
+
+/// Why a trained model does not follow its teacher, when it does not: its
+/// best validation score is worse than [`UNSTABLE_SCORE`] (or not a number).
+/// `cpg train` refuses to write such a model and the Python package refuses
+/// to return it (both unless asked to keep it); this is the one message both give.
+pub fn unstable(m: &TrainedCpg) -> Option<String> {
+    let pv = &m.provenance;
+    let best = pv.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
+    (best.is_nan() || best > UNSTABLE_SCORE).then(|| {
+        format!(
+            "the best validation score is {best:.4} (penalty {:.2e}), worse than {UNSTABLE_SCORE} (a flat line at the mean scores 1): the free run does not follow the teacher",
+            pv.chosen_penalty
+        )
+    })
+}
+
 /// Whether the chosen penalty is the first or last of the grid (the search may want a wider grid).
 pub fn penalty_at_edge(m: &TrainedCpg) -> bool {
     let v = m.provenance.settings.penalties.values();

@@ -77,6 +77,10 @@ struct Frames<'a> {
     radians: bool,
     /// Column layout, fixed by the first frame: (bone name, first column).
     layout: Vec<(String, usize)>,
+    /// Where each bone of `layout` is in it (lines are looked up in constant time).
+    slots: std::collections::HashMap<String, usize>,
+    /// The skeleton's bones by name, `root` among them: their degrees of freedom.
+    dofs: std::collections::HashMap<&'a str, &'a [crate::Dof]>,
     channels: Vec<Channel>,
     values: Vec<f64>,
     /// The frame being read.
@@ -96,6 +100,10 @@ impl<'a> Frames<'a> {
             skeleton,
             radians: false,
             layout: Vec::new(),
+            slots: std::collections::HashMap::new(),
+            dofs: std::iter::once(("root", skeleton.root.order.as_slice()))
+                .chain(skeleton.bones.iter().map(|b| (b.name.as_str(), b.dofs.as_slice())))
+                .collect(),
             channels: Vec::new(),
             values: Vec::new(),
             frame_no: None,
@@ -183,8 +191,7 @@ impl<'a> Frames<'a> {
                 .into());
         };
         let name = first.text;
-        let dofs =
-            self.skeleton.dofs_of(name).ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
+        let dofs = *self.dofs.get(name).ok_or_else(|| cx.err(l.number, first.column, K::UnknownBone(name.into())))?;
         if dofs.is_empty() {
             return Err(cx.err(l.number, first.column, K::NoDofBone(name.into())).into());
         }
@@ -198,9 +205,10 @@ impl<'a> Frames<'a> {
                 )
                 .into());
         }
-        let slot = match self.layout.iter().position(|(b, _)| b == name) {
-            Some(s) => s,
+        let slot = match self.slots.get(name) {
+            Some(&s) => s,
             None if frame == self.first_frame_no => {
+                self.slots.insert(name.to_owned(), self.layout.len());
                 self.layout.push((name.to_owned(), self.channels.len()));
                 self.channels.extend(dofs.iter().map(|&dof| Channel { bone: name.to_owned(), dof }));
                 self.row.resize(self.channels.len(), 0.0);

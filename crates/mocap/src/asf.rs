@@ -4,7 +4,13 @@ use crate::error::{ParseError, ParseErrorKind as K};
 use crate::lex::{self, Ctx, Line};
 use crate::{AngleUnit, AxisOrder, Bone, Dof, Root, Skeleton, Units};
 
-/// Parses ASF text. `file` names the source in error messages.
+/// The most bones an ASF skeleton may have (as many as a BVH's joints,
+/// [`crate::bvh::MAX_BVH_JOINTS`]; a human figure has about 30).
+pub const MAX_ASF_BONES: usize = 10_000;
+
+/// Parses ASF text. `file` names the source in error messages. Time and
+/// memory grow linearly with the text; more than [`MAX_ASF_BONES`] bones
+/// are refused at the first bone beyond them.
 pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
     let text = lex::text(file, bytes)?;
     let cx = Ctx { file };
@@ -25,6 +31,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
     let mut seen_bones = false;
     let mut seen_hier = false;
     let mut parents: Vec<Option<Option<usize>>> = Vec::new();
+    let mut index: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     let mut i = 0;
     while i < lines.len() {
         let l = &lines[i];
@@ -55,7 +62,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
             }
             ":bonedata" => {
                 seen_bones = true;
-                parse_bonedata(&cx, &lines, &mut i, &mut sk.bones, last_line)?;
+                parse_bonedata(&cx, &lines, &mut i, &mut sk.bones, &mut index, last_line)?;
                 parents = vec![None; sk.bones.len()];
             }
             ":hierarchy" => {
@@ -63,7 +70,7 @@ pub fn parse_asf(file: &str, bytes: &[u8]) -> Result<Skeleton, ParseError> {
                 if !seen_bones {
                     return Err(cx.err(l.number, 0, K::MissingSection(":bonedata (before :hierarchy)")));
                 }
-                parse_hierarchy(&cx, &lines, &mut i, &sk, &mut parents, last_line)?;
+                parse_hierarchy(&cx, &lines, &mut i, &index, &mut parents, last_line)?;
             }
             other => {
                 return Err(cx.err(
@@ -176,10 +183,21 @@ fn parse_bonedata(
     lines: &[Line<'_>],
     i: &mut usize,
     bones: &mut Vec<Bone>,
+    index: &mut std::collections::HashMap<String, usize>,
     last_line: usize,
 ) -> Result<(), ParseError> {
     while *i < lines.len() && !is_section(&lines[*i]) {
         let b = &lines[*i];
+        if bones.len() >= MAX_ASF_BONES {
+            return Err(cx.err(
+                b.number,
+                0,
+                K::Unexpected {
+                    expected: format!("at most {MAX_ASF_BONES} bones"),
+                    found: format!("bone {}", MAX_ASF_BONES + 1),
+                },
+            ));
+        }
         if b.toks[0].text != "begin" {
             return Err(cx.err(
                 b.number,
@@ -189,9 +207,10 @@ fn parse_bonedata(
         }
         *i += 1;
         let bone = parse_bone(cx, lines, i, b.number, last_line)?;
-        if bone.name == "root" || bones.iter().any(|o| o.name == bone.name) {
+        if bone.name == "root" || index.contains_key(&bone.name) {
             return Err(cx.err(b.number, 0, K::DuplicateBone(bone.name)));
         }
+        index.insert(bone.name.clone(), bones.len());
         bones.push(bone);
     }
     Ok(())
@@ -376,7 +395,7 @@ fn parse_hierarchy(
     cx: &Ctx<'_>,
     lines: &[Line<'_>],
     i: &mut usize,
-    sk: &Skeleton,
+    index: &std::collections::HashMap<String, usize>,
     parents: &mut [Option<Option<usize>>],
     last_line: usize,
 ) -> Result<(), ParseError> {
@@ -401,10 +420,10 @@ fn parse_hierarchy(
         }
         let parent = match l.toks[0].text {
             "root" => None,
-            n => Some(sk.bone_index(n).ok_or_else(|| cx.err(l.number, l.toks[0].column, K::UnknownBone(n.into())))?),
+            n => Some(*index.get(n).ok_or_else(|| cx.err(l.number, l.toks[0].column, K::UnknownBone(n.into())))?),
         };
         for t in &l.toks[1..] {
-            let c = sk.bone_index(t.text).ok_or_else(|| cx.err(l.number, t.column, K::UnknownBone(t.text.into())))?;
+            let c = *index.get(t.text).ok_or_else(|| cx.err(l.number, t.column, K::UnknownBone(t.text.into())))?;
             if parents[c].is_some() {
                 return Err(cx.err(l.number, t.column, K::Hierarchy(format!("bone '{}' has two parents", t.text))));
             }

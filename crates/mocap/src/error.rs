@@ -30,7 +30,7 @@ pub enum Error {
         max_bytes: u64,
     },
     /// A channel name is not part of a motion.
-    #[error("unknown channel '{name}'; valid channels are: {}", valid.join(", "))]
+    #[error("unknown channel '{name}'{}; valid channels are: {}", cpg_io::did_you_mean(name, valid.iter().map(String::as_str)), valid.join(", "))]
     UnknownChannel {
         /// The name that was asked for.
         name: String,

@@ -33,7 +33,7 @@ mod lex;
 mod motion;
 
 pub use amc::{parse_amc, write_amc};
-pub use asf::{parse_asf, write_asf};
+pub use asf::{MAX_ASF_BONES, parse_asf, write_asf};
 pub use bvh::{Bvh, BvhOptions, parse_bvh, write_bvh};
 pub use error::{Error, ParseError, ParseErrorKind, Result};
 pub use kinematics::Positions;
@@ -254,11 +254,20 @@ impl Skeleton {
 
     /// Bone indices ordered so that every parent precedes its children.
     pub fn topological_order(&self) -> Vec<usize> {
-        let mut order = Vec::with_capacity(self.bones.len());
-        let mut frontier: Vec<usize> = (0..self.bones.len()).filter(|&i| self.bones[i].parent.is_none()).collect();
+        // Children lists once (linear in the bones), then depth-first with the
+        // lower-numbered child first.
+        let n = self.bones.len();
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (c, b) in self.bones.iter().enumerate() {
+            if let Some(p) = b.parent.filter(|&p| p < n) {
+                children[p].push(c);
+            }
+        }
+        let mut order = Vec::with_capacity(n);
+        let mut frontier: Vec<usize> = (0..n).filter(|&i| self.bones[i].parent.is_none()).collect();
         while let Some(b) = frontier.pop() {
             order.push(b);
-            frontier.extend((0..self.bones.len()).rev().filter(|&c| self.bones[c].parent == Some(b)));
+            frontier.extend(children[b].iter().rev());
         }
         order
     }

@@ -259,3 +259,49 @@ fn a_line_of_parentheses_is_skipped_not_a_crash() {
     let text = asf_with(":documentation\n", ":documentation\n(\n");
     assert!(parse_asf("p.asf", text.as_bytes()).is_ok());
 }
+
+/// A chain of `n` bones, each the child of the one before, each with one
+/// rotation; and an AMC of `frames` frames for it.
+fn chain(n: usize, frames: usize) -> (String, String) {
+    let mut asf = String::from(
+        ":version 1.10\n:name chain\n:units\n  mass 1.0\n  length 0.45\n  angle deg\n:root\n  order TX TY TZ RX RY RZ\n  axis XYZ\n  position 0 0 0\n  orientation 0 0 0\n:bonedata\n",
+    );
+    for i in 0..n {
+        asf.push_str(&format!(
+            "  begin\n    id {}\n    name b{i}\n    direction 0 1 0\n    length 1\n    axis 0 0 0 XYZ\n    dof rx\n  end\n",
+            i + 1
+        ));
+    }
+    asf.push_str(":hierarchy\n  begin\n    root b0\n");
+    for i in 1..n {
+        asf.push_str(&format!("    b{} b{i}\n", i - 1));
+    }
+    asf.push_str("  end\n");
+    let mut amc = String::from(":FULLY-SPECIFIED\n:DEGREES\n");
+    for f in 1..=frames {
+        amc.push_str(&format!("{f}\nroot 0 0 0 0 0 0\n"));
+        for i in 0..n {
+            amc.push_str(&format!("b{i} 1\n"));
+        }
+    }
+    (asf, amc)
+}
+
+/// An ASF of 100,000 bones once took over two minutes (a quadratic name
+/// check, and no cap where BVH has one): bones beyond the cap are refused at
+/// the first one, naming its line; a skeleton at the cap parses, its AMC too,
+/// with every lookup by name in constant time.
+#[test]
+fn bones_beyond_the_cap_are_refused_at_the_first_and_the_cap_itself_parses() {
+    let (asf, _) = chain(cpg_mocap::MAX_ASF_BONES + 1, 0);
+    let (kind, line) = asf_err(&asf);
+    assert!(matches!(&kind, K::Unexpected { expected, .. } if expected.contains("at most 10000 bones")), "{kind:?}");
+    assert_eq!(line, 12 + 8 * cpg_mocap::MAX_ASF_BONES + 1, "the line of the bone beyond the cap");
+    let (asf, amc) = chain(cpg_mocap::MAX_ASF_BONES, 2);
+    let sk = parse_asf("chain.asf", asf.as_bytes()).unwrap();
+    assert_eq!(sk.bones.len(), cpg_mocap::MAX_ASF_BONES);
+    assert_eq!(sk.topological_order().len(), sk.bones.len());
+    assert_eq!(sk.bones[9_999].parent, Some(9_998));
+    let m = parse_amc("chain.amc", amc.as_bytes(), &sk, 120.0).unwrap();
+    assert_eq!((m.n_frames(), m.n_channels()), (2, 6 + cpg_mocap::MAX_ASF_BONES));
+}

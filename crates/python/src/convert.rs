@@ -28,7 +28,7 @@ pub(crate) fn matrix(py: Python<'_>, v: &Bound<'_, PyAny>, name: &str) -> PyResu
             return Err(err(format!(
                 "{name}: an array of shape ({}); expected time × channels (or one channel as a 1-D array){}",
                 other.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "),
-                if other.len() == 3 { "; give several segments as segments=[...]" } else { "" }
+                if other.len() == 3 { "; give several segments to fit_segments([...])" } else { "" }
             )));
         }
     };
@@ -57,41 +57,96 @@ pub(crate) fn cores() -> usize {
 /// The largest magnitude of a value given as data, as in motion files.
 pub(crate) const MAX_VALUE: f64 = cpg_mocap::MAX_MAGNITUDE;
 
+/// What a progress line says about long work: its label and the free-run
+/// steps it will take in all (what [`cpg_reservoir::watch::Watch::steps`] counts).
+pub(crate) struct Progress {
+    pub label: String,
+    pub total_steps: u64,
+}
+
 /// Runs `work` on its own thread while this one answers signals: Ctrl-C
-/// raises `KeyboardInterrupt` within 0.1 s. `work` is told through its flag
-/// and stops at its next check; work that cannot stop finishes unseen.
+/// raises `KeyboardInterrupt` within 0.1 s and cancels the work's watch,
+/// which the worker thread carries ([`cpg_reservoir::watch`], and every pool
+/// `cpg_lab::in_pool` builds inside it): training, validation and free runs
+/// stop at their next check, within a few thousand steps, so no core stays
+/// busy after the interrupt. `work` may also read the watch itself.
 pub(crate) fn interruptible<T: Send + 'static>(
     py: Python<'_>,
-    work: impl FnOnce(&std::sync::atomic::AtomicBool) -> T + Send + 'static,
+    work: impl FnOnce(&cpg_reservoir::watch::Watch) -> T + Send + 'static,
 ) -> PyResult<T> {
+    interruptible_with(py, None, work)
+}
+
+/// [`interruptible`], showing `progress` on standard error while the work
+/// runs longer than a second, when standard error is a terminal: a bar, the
+/// share done, the seconds so far and the estimate of those left (as the
+/// command line's bars do); the line is cleared at the end.
+pub(crate) fn interruptible_with<T: Send + 'static>(
+    py: Python<'_>,
+    progress: Option<Progress>,
+    work: impl FnOnce(&cpg_reservoir::watch::Watch) -> T + Send + 'static,
+) -> PyResult<T> {
+    use cpg_reservoir::watch::Watch;
     use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
-    let cancel = Arc::new(AtomicBool::new(false));
+    let watch = Arc::new(Watch::default());
     let (tx, rx) = std::sync::mpsc::channel();
-    let flag = cancel.clone();
+    let mine = watch.clone();
     std::thread::Builder::new()
         .name("cpg-work".into())
         .spawn(move || {
-            let _ = tx.send(work(&flag));
+            cpg_reservoir::watch::set_for_this_thread(Some(mine.clone()));
+            let _ = tx.send(work(&mine));
         })
         .map_err(err)?;
+    let start = std::time::Instant::now();
+    let stderr = py.import("sys")?.getattr("stderr")?;
+    let tty = progress.is_some() && stderr.call_method0("isatty").and_then(|v| v.extract::<bool>()).unwrap_or(false);
+    let mut shown = false;
     let mut rx = rx;
-    loop {
+    let result = loop {
         let (got, back) = py.detach(move || (rx.recv_timeout(std::time::Duration::from_millis(50)), rx));
         rx = back;
         match got {
-            Ok(v) => return Ok(v),
+            Ok(v) => break Ok(v),
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                return Err(err("the work stopped without a result (it panicked)"));
+                break Err(err("the work stopped without a result (it panicked)"));
             }
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                 if let Err(e) = py.check_signals() {
-                    cancel.store(true, Ordering::SeqCst);
-                    return Err(e);
+                    watch.cancel();
+                    break Err(e);
+                }
+                if let (true, Some(p)) = (tty, &progress)
+                    && start.elapsed().as_secs_f64() >= 1.0
+                {
+                    let _ = stderr.call_method1("write", (progress_line(p, watch.steps_done(), start.elapsed()),));
+                    let _ = stderr.call_method0("flush");
+                    shown = true;
                 }
             }
         }
+    };
+    if shown {
+        let _ = stderr.call_method1("write", ("\r\x1b[K",));
+        let _ = stderr.call_method0("flush");
     }
+    result
+}
+
+/// One progress line, drawn over the last (`\r`).
+fn progress_line(p: &Progress, done: u64, elapsed: std::time::Duration) -> String {
+    let share = if p.total_steps == 0 { 0.0 } else { (done as f64 / p.total_steps as f64).clamp(0.0, 1.0) };
+    let width = 30;
+    let filled = (share * width as f64).round() as usize;
+    let secs = elapsed.as_secs_f64();
+    let eta = if share > 0.01 { format!(" (eta {:.0} s)", secs * (1.0 - share) / share) } else { String::new() };
+    format!(
+        "\r{} [{}{}] {:>3.0}% {secs:.0} s{eta}\x1b[K",
+        p.label,
+        "#".repeat(filled),
+        "-".repeat(width - filled),
+        100.0 * share
+    )
 }
 
 /// A 2-D float64 array as row-major values, with its shape (any strides, any order).
@@ -181,11 +236,12 @@ pub(crate) fn to_toml_inner(v: &Bound<'_, PyAny>, key: &str, path: &mut Vec<usiz
         }
         return Ok(Some(toml::Value::Table(t)));
     }
-    if v.is_instance_of::<PyBool>() {
-        return Ok(Some(toml::Value::Boolean(v.extract()?)));
+    if v.is_instance_of::<PyBool>() || is_numpy_bool(v) {
+        return Ok(Some(toml::Value::Boolean(v.is_truthy()?)));
     }
-    if v.is_instance_of::<PyInt>() {
-        let i: i64 = v.extract().map_err(|_| err(format!("`{key}`: an integer beyond 64 bits")))?;
+    // A whole number, numpy's included (numpy.int64(50) is an integer, not 50.0).
+    if let Some(i) = as_int(v) {
+        let i: i64 = i.extract().map_err(|_| err(format!("`{key}`: an integer beyond 64 bits")))?;
         return Ok(Some(toml::Value::Integer(i)));
     }
     if v.is_instance_of::<PyString>() {

@@ -18,20 +18,39 @@ pub(crate) fn err(e: impl std::fmt::Display) -> PyErr {
     CpgError::new_err(e.to_string())
 }
 
-/// A whole number argument within `lo..=hi`: a `TypeError` when it is not an
-/// integer, a `CpgError` naming the range when it is out of it (never an
-/// `OverflowError`, whatever its size or sign).
+/// A whole number argument within `lo..=hi`: a Python `int` or anything
+/// that is one (`numpy.int64`: whatever `operator.index` takes, booleans
+/// aside); a `TypeError` when it is not an integer, a `CpgError` naming the
+/// range when it is out of it (never an `OverflowError`, whatever its size or sign).
 pub(crate) fn int_arg(v: &Bound<'_, PyAny>, name: &str, lo: u64, hi: u64) -> PyResult<u64> {
-    if v.is_instance_of::<PyBool>() || !v.is_instance_of::<PyInt>() {
-        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+    let v = as_int(v).ok_or_else(|| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
             "{name}: expected an integer, got {}",
-            v.get_type().name()?
-        )));
-    }
+            v.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+        ))
+    })?;
     match v.extract::<u64>() {
         Ok(x) if (lo..=hi).contains(&x) => Ok(x),
         _ => Err(err(format!("{name} = {}: expected a whole number from {lo} to {hi}", short(&v.str()?.to_string())))),
     }
+}
+
+/// `v` as a Python `int` when it is a whole number (an `int`, a numpy
+/// integer, anything `operator.index` takes), not a boolean (Python's or numpy's).
+pub(crate) fn as_int<'py>(v: &Bound<'py, PyAny>) -> Option<Bound<'py, PyAny>> {
+    if v.is_instance_of::<PyBool>() || is_numpy_bool(v) {
+        return None;
+    }
+    if v.is_instance_of::<PyInt>() {
+        return Some(v.clone());
+    }
+    v.py().import("operator").ok()?.call_method1("index", (v,)).ok()
+}
+
+/// Whether `v` is a numpy boolean (`numpy.bool_`), which is no Python `bool`.
+pub(crate) fn is_numpy_bool(v: &Bound<'_, PyAny>) -> bool {
+    v.get_type().name().is_ok_and(|n| n == "bool" || n == "bool_")
+        && v.get_type().module().is_ok_and(|m| m.to_string().starts_with("numpy"))
 }
 
 /// Text clipped for a message (a Python int can have a million digits).

@@ -7,6 +7,7 @@
 
 mod convert;
 mod errors;
+mod files;
 mod model;
 mod motion;
 mod robot;
@@ -16,6 +17,7 @@ mod stream;
 use pyo3::prelude::*;
 
 use errors::CpgError;
+use files::{_check_output, _read_bounded, _write_output};
 use model::*;
 use motion::*;
 use robot::*;
@@ -34,6 +36,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(train, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_segments, m)?)?;
     m.add_function(wrap_pyfunction!(hoap2_urdf, m)?)?;
     m.add_function(wrap_pyfunction!(hoap2_mjcf, m)?)?;
     m.add_function(wrap_pyfunction!(robot_joints, m)?)?;
@@ -41,6 +44,9 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_model_from_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(_generator_from_state, m)?)?;
     m.add_function(wrap_pyfunction!(_controls_at, m)?)?;
+    m.add_function(wrap_pyfunction!(_check_output, m)?)?;
+    m.add_function(wrap_pyfunction!(_write_output, m)?)?;
+    m.add_function(wrap_pyfunction!(_read_bounded, m)?)?;
     m.add("DEFAULT_ACCELERATION_RAD_S2", cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)?;
     m.add("SPLIT_MIN_NEURONS", SPLIT_MIN_NEURONS)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

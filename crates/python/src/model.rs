@@ -34,14 +34,25 @@ pub use cpg_lab::measure::SPLIT_MIN_NEURONS;
 
 /// Control values for `steps` steps: None (the first teacher's setting, or
 /// none for a model without controls), a sequence of one value per input
-/// (constant), or an array steps × inputs (the last row is held).
+/// (constant), or a table steps × inputs (the last row is held): anything
+/// NumPy reads as numbers (a list of lists, a float32 array, …).
 pub(crate) fn schedule(m: &TrainedCpg, controls: Option<&Bound<'_, PyAny>>) -> PyResult<ControlSchedule> {
     let u = m.controls.len();
     let s = match controls {
         None => return cpg_lab::run::schedule(m, Controls::Unset { strict: false }).map_err(err),
         Some(c) => {
-            if let Ok(a) = c.extract::<PyReadonlyArray2<'_, f64>>() {
-                let (values, n, w) = rows(&a);
+            let np = c.py().import("numpy")?;
+            let a = np.call_method1("asarray", (c, "float64")).map_err(|e| {
+                err(format!(
+                    "controls: expected {u} numbers or a table of steps × {u} that NumPy reads as numbers: {}",
+                    e.value(c.py())
+                ))
+            })?;
+            let ndim: usize = a.getattr("ndim")?.extract()?;
+            if ndim == 2 {
+                let a = np.call_method1("ascontiguousarray", (a,))?;
+                let arr: PyReadonlyArray2<'_, f64> = a.extract()?;
+                let (values, n, w) = rows(&arr);
                 if w != u || n == 0 {
                     return Err(err(format!(
                         "controls: an array of {n} × {w}; expected steps × {u} (one column per control input: {})",
@@ -49,11 +60,13 @@ pub(crate) fn schedule(m: &TrainedCpg, controls: Option<&Bound<'_, PyAny>>) -> P
                     )));
                 }
                 ControlSchedule::Table { width: u, rows: values }
-            } else {
-                let v: Vec<f64> = c
-                    .extract()
-                    .map_err(|_| err(format!("controls: expected {u} numbers or an array of steps × {u}")))?;
+            } else if ndim <= 1 {
+                let v: Vec<f64> = np.call_method1("ravel", (a,))?.call_method0("tolist")?.extract()?;
                 ControlSchedule::Constant(v)
+            } else {
+                return Err(err(format!(
+                    "controls: an array of {ndim} dimensions; expected {u} numbers or steps × {u}"
+                )));
             }
         }
     };
@@ -166,8 +179,9 @@ impl Model {
         };
         let s = schedule(&self.m, controls)?;
         let m = self.m.clone();
-        let y = interruptible(py, move |cancel| {
-            cpg_lab::run::generate(&m, &s, steps, cpg_lab::run::RunOptions { threads, cancel: Some(cancel) })
+        let progress = Progress { label: "generate".into(), total_steps: steps as u64 };
+        let y = interruptible_with(py, Some(progress), move |watch| {
+            cpg_lab::run::generate(&m, &s, steps, cpg_lab::run::RunOptions { threads, cancel: Some(&watch.cancel) })
         })?
         .map_err(err)?
         .ok_or_else(|| err("interrupted"))?;
@@ -217,7 +231,13 @@ impl Model {
             None => None,
         };
         let m = self.m.clone();
-        let j = interruptible(py, move |_| cpg_lab::measure::judge(&m, n, s.as_ref(), cores()))?.map_err(err)?;
+        // Each control setting judged: a free run of n steps, and a pushed one (at most as long).
+        let settings = if s.is_some() { 1 } else { self.m.teachers.len() as u64 };
+        let progress = Progress { label: "evaluate".into(), total_steps: settings * 2 * n as u64 };
+        let j = interruptible_with(py, Some(progress), move |_| {
+            cpg_lab::in_pool(cores(), || cpg_lab::measure::judge(&m, n, s.as_ref(), cores()))
+        })?
+        .map_err(err)?;
         to_py(py, &serde_json::to_value(j).map_err(err)?)
     }
 
@@ -262,11 +282,13 @@ impl Model {
         self.m.save(&path).map_err(err)
     }
 
-    /// A model from a model file's bytes.
+    /// A model from a model file's bytes (`bytes`, `bytearray`, `memoryview`
+    /// or any object with the buffer protocol).
     #[staticmethod]
     #[pyo3(signature = (data, name="<bytes>"))]
-    fn from_bytes(data: &[u8], name: &str) -> PyResult<Model> {
-        Ok(Model::of(TrainedCpg::from_bytes(data, Path::new(name)).map_err(err)?))
+    fn from_bytes(data: &Bound<'_, PyAny>, name: &str) -> PyResult<Model> {
+        let bytes = buffer_bytes(data)?;
+        Ok(Model::of(TrainedCpg::from_bytes(&bytes, Path::new(name)).map_err(err)?))
     }
 
     /// Pickling: the model file's bytes.
@@ -318,7 +340,26 @@ pub(crate) fn trajectory_dict<'py>(py: Python<'py>, t: &cpg_hoap2::JointTrajecto
 /// A model from its file's bytes (what a pickled `Model` is made from again).
 #[pyfunction]
 pub(crate) fn _model_from_bytes(data: &[u8]) -> PyResult<Model> {
-    Model::from_bytes(data, "<pickle>")
+    Ok(Model::of(TrainedCpg::from_bytes(data, Path::new("<pickle>")).map_err(err)?))
+}
+
+/// The bytes of any object with the buffer protocol, its size bounded
+/// (as a model file's) before they are copied.
+fn buffer_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
+    if let Ok(b) = data.cast::<PyBytes>() {
+        return Ok(b.as_bytes().to_vec());
+    }
+    let view = data.py().import("builtins")?.getattr("memoryview")?.call1((data,)).map_err(|_| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "data: expected bytes, a bytearray or a buffer, got {}",
+            data.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+        ))
+    })?;
+    let n: u64 = view.getattr("nbytes")?.extract()?;
+    if n > cpg_reservoir::MAX_MODEL_BYTES {
+        return Err(err(format!("data: {n} bytes, more than a model file holds ({})", cpg_reservoir::MAX_MODEL_BYTES)));
+    }
+    Ok(view.call_method0("tobytes")?.cast_into::<PyBytes>()?.as_bytes().to_vec())
 }
 
 /// Reads a model file.
@@ -329,18 +370,32 @@ pub(crate) fn load(path: PathBuf) -> PyResult<Model> {
 
 /// Trains a model as `cpg train` does, from a configuration file (a path)
 /// or a dict with the same fields (docs/config.md; relative paths against
-/// the working directory). The same configuration and seed give the same
-/// model, bit for bit, as `cpg train`; `seed` replaces the configuration's
-/// reservoir seed.
+/// the working directory; a dict needs no `[output]`). The same
+/// configuration and seed give the same model, bit for bit, as `cpg train`;
+/// `seed` replaces the configuration's reservoir seed. A model whose free
+/// run does not follow its teacher (best validation score worse than 1) is
+/// refused as `cpg train` refuses it, unless `allow_unstable=True` (then a
+/// warning says the same). Ctrl-C stops the training.
 #[pyfunction]
-#[pyo3(signature = (config, seed=None))]
-pub(crate) fn train(py: Python<'_>, config: &Bound<'_, PyAny>, seed: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
+#[pyo3(signature = (config, seed=None, allow_unstable=false))]
+pub(crate) fn train(
+    py: Python<'_>,
+    config: &Bound<'_, PyAny>,
+    seed: Option<&Bound<'_, PyAny>>,
+    allow_unstable: bool,
+) -> PyResult<Model> {
     let seed = seed.map(|s| int_arg(s, "seed", 0, u64::MAX)).transpose()?;
     let mut c = if config.is_instance_of::<PyDict>() {
-        let Some(toml::Value::Table(t)) = to_toml(config, "")? else {
+        let Some(toml::Value::Table(mut t)) = to_toml(config, "")? else {
             return Err(err("the configuration dict is empty"));
         };
-        config_from_table(&t, "<dict>")?
+        // The model is returned, not written: a dict needs no [output] (one given is read and unused).
+        if !t.contains_key("output") {
+            let output: toml::Table =
+                [("model".to_owned(), toml::Value::String("unused.cpg".into()))].into_iter().collect();
+            t.insert("output".into(), toml::Value::Table(output));
+        }
+        config_from_table(&t, "config")?
     } else {
         let p: PathBuf = config.extract().map_err(|_| err("config: expected a path or a dict"))?;
         Config::load(&p).map_err(err)?
@@ -348,60 +403,177 @@ pub(crate) fn train(py: Python<'_>, config: &Bound<'_, PyAny>, seed: Option<&Bou
     if let Some(s) = seed {
         c.reservoir.seed = s;
     }
+    let source = c.source.display().to_string();
     let m = interruptible(py, move |_| cpg_lab::in_pool(cores(), || cpg_lab::train::train(&c, cores()).map(|t| t.0)))?
         .map_err(err)?;
+    stable_or_refused(py, m, if source.is_empty() { "config" } else { &source }, allow_unstable)
+}
+
+/// The model, or the refusal `cpg train` gives an unstable one (a warning instead with `allow_unstable`).
+fn stable_or_refused(py: Python<'_>, m: TrainedCpg, source: &str, allow_unstable: bool) -> PyResult<Model> {
+    if let Some(why) = cpg_lab::train::unstable(&m) {
+        if !allow_unstable {
+            return Err(err(format!(
+                "{source}: {why}. No model was returned; allow_unstable=True returns it anyway, `cpg tune` searches for settings that work"
+            )));
+        }
+        let warnings = py.import("warnings")?;
+        warnings.call_method1("warn", (format!("{source}: {why}; returned anyway (allow_unstable=True)"),))?;
+    }
     Ok(Model::of(m))
 }
 
-/// Trains a model on arrays: `y` is one segment (time × channels, anything
-/// NumPy reads as numbers; a 1-D array is one channel), or `segments` a list
-/// of them, each with its own control values; z-scoring is inside.
+/// Trains a CPG on one recording held in an array, as `cpg train` does on a
+/// file (our protocol of `experiments/e1.toml`; z-scoring is inside).
+///
+/// - `y`: time × channels, anything NumPy reads as numbers (a 1-D array is
+///   one channel; a pandas DataFrame's columns name the channels).
+/// - `rate_hz`: frames per second of `y` (required).
+/// - `controls`: the control values held during `y`, one per control input
+///   (e.g. `[1.0]`); none by default.
+/// - `channels`: the channels' names (default: a DataFrame's columns, else `y0`, `y1`, …).
+/// - `control_names`: the control inputs' names (default `u0`, `u1`, …).
+/// - `seed`: the reservoir's seed (default 1; any 64-bit whole number).
+/// - `config`: settings over the preset, as a dict of the sections `data`,
+///   `reservoir` and `training` of a configuration file (docs/config.md).
+/// - `allow_unstable`: return a model whose free run does not follow its
+///   teacher (best validation score worse than 1) with a warning, instead of
+///   refusing it as `cpg train` does.
+///
+/// Several recordings, each under its own control values: `fit_segments`.
+/// Ctrl-C stops the training.
 #[pyfunction]
-#[pyo3(signature = (y=None, rate_hz=None, controls=None, channels=None, control_names=None, seed=None, config=None, segments=None))]
+#[pyo3(signature = (y, rate_hz, controls=None, channels=None, control_names=None, seed=None, config=None, allow_unstable=false))]
 #[allow(clippy::too_many_arguments)] // the Python signature: keyword arguments with defaults
 pub(crate) fn fit(
     py: Python<'_>,
-    y: Option<&Bound<'_, PyAny>>,
-    rate_hz: Option<f64>,
+    y: &Bound<'_, PyAny>,
+    rate_hz: f64,
     controls: Option<&Bound<'_, PyAny>>,
     channels: Option<Vec<String>>,
     control_names: Option<Vec<String>>,
     seed: Option<&Bound<'_, PyAny>>,
     config: Option<&Bound<'_, PyDict>>,
-    segments: Option<&Bound<'_, PyAny>>,
+    allow_unstable: bool,
 ) -> PyResult<Model> {
-    let rate_hz = rate_arg(rate_hz.ok_or_else(|| err("rate_hz: required (frames per second)"))?, "rate_hz")?;
-    let seed = match seed {
-        Some(s) => int_arg(s, "seed", 0, u64::MAX)?,
-        None => 1,
+    let rate_hz = rate_arg(rate_hz, "rate_hz")?;
+    let seg = matrix(py, y, "y")?;
+    let ctl = match controls {
+        None => Vec::new(),
+        Some(c) => one_setting(c, "controls")?,
     };
-    // The segments, each converted once and checked at once.
-    let segs: Vec<(Vec<f64>, usize, usize)> = match (y, segments) {
-        (Some(y), None) => vec![matrix(py, y, "y")?],
-        (None, Some(list)) => {
-            let n = list.len().map_err(|_| err("segments: expected a list of arrays"))?;
-            if n == 0 || n > cpg_lab::config::MAX_SEGMENTS {
-                return Err(err(format!("segments: {n} arrays; expected 1 to {}", cpg_lab::config::MAX_SEGMENTS)));
-            }
-            list.try_iter()?
-                .enumerate()
-                .map(|(k, a)| matrix(py, &a?, &format!("segments[{k}]")))
-                .collect::<PyResult<_>>()?
-        }
-        (Some(_), Some(_)) => return Err(err("give y (one segment) or segments=[...], not both")),
-        (None, None) => return Err(err("give y (time × channels) or segments=[...] (several)")),
+    let channels = channels.or_else(|| column_names(y, seg.2));
+    let m = fit_on(py, vec![seg], vec!["y".into()], vec![ctl], rate_hz, channels, control_names, seed, config)?;
+    stable_or_refused(py, m, "fit", allow_unstable)
+}
+
+/// Trains a CPG on several recordings, each held under its own control
+/// values (a gait per setting, as `experiments/e5-extension.toml` does).
+///
+/// - `segments`: a list of arrays, each time × channels (the same channels).
+/// - `rate_hz`: frames per second (required).
+/// - `controls`: one list of control values per segment (e.g. `[[1, 0], [0, 1]]`).
+/// - `channels`, `control_names`, `seed`, `config`, `allow_unstable`: as
+///   `fit`'s (a DataFrame's columns name the channels when `channels` is not given).
+///
+/// Ctrl-C stops the training.
+#[pyfunction]
+#[pyo3(signature = (segments, rate_hz, controls=None, channels=None, control_names=None, seed=None, config=None, allow_unstable=false))]
+#[allow(clippy::too_many_arguments)] // the Python signature: keyword arguments with defaults
+pub(crate) fn fit_segments(
+    py: Python<'_>,
+    segments: &Bound<'_, PyAny>,
+    rate_hz: f64,
+    controls: Option<&Bound<'_, PyAny>>,
+    channels: Option<Vec<String>>,
+    control_names: Option<Vec<String>>,
+    seed: Option<&Bound<'_, PyAny>>,
+    config: Option<&Bound<'_, PyDict>>,
+    allow_unstable: bool,
+) -> PyResult<Model> {
+    let rate_hz = rate_arg(rate_hz, "rate_hz")?;
+    // Any iterable of arrays (a list, a tuple, a generator), at most MAX_SEGMENTS of them taken.
+    let max = cpg_lab::config::MAX_SEGMENTS;
+    let iter = segments.try_iter().map_err(|_| err("segments: expected a list of arrays"))?;
+    let items: Vec<Bound<'_, PyAny>> = iter.take(max + 1).collect::<PyResult<_>>()?;
+    let n = match segments.len() {
+        Ok(n) => n,
+        Err(_) => items.len(),
     };
-    let which = |k: usize| if segments.is_some() { format!("segments[{k}]") } else { "y".to_owned() };
+    if n == 0 || n > max {
+        let shown = if n > max && segments.len().is_err() { format!("more than {max}") } else { n.to_string() };
+        return Err(err(format!("segments: {shown} arrays; expected 1 to {max}")));
+    }
+    let segs: Vec<(Vec<f64>, usize, usize)> =
+        items.iter().enumerate().map(|(k, a)| matrix(py, a, &format!("segments[{k}]"))).collect::<PyResult<_>>()?;
     let ctl: Vec<Vec<f64>> = match controls {
         None => vec![Vec::new(); segs.len()],
         Some(c) => {
-            let v: Vec<Vec<f64>> =
-                c.extract().map_err(|_| err("controls: expected one list of control values per segment"))?;
-            if v.len() != segs.len() {
-                return Err(err(format!("controls: {} settings for {} segments", v.len(), segs.len())));
+            let rows: Vec<Bound<'_, PyAny>> = c
+                .try_iter()
+                .map_err(|_| err("controls: expected one list of control values per segment"))?
+                .collect::<PyResult<_>>()?;
+            if rows.len() != segs.len() {
+                return Err(err(format!("controls: {} settings for {} segments", rows.len(), segs.len())));
             }
-            v
+            rows.iter().enumerate().map(|(k, r)| one_setting(r, &format!("controls[{k}]"))).collect::<PyResult<_>>()?
         }
+    };
+    let channels = channels.or_else(|| column_names(&items[0], segs[0].2));
+    let labels = (0..segs.len()).map(|k| format!("segments[{k}]")).collect();
+    let m = fit_on(py, segs, labels, ctl, rate_hz, channels, control_names, seed, config)?;
+    stable_or_refused(py, m, "fit_segments", allow_unstable)
+}
+
+/// One control setting: a flat sequence of numbers (`[1.0]`, a 1-D array; a
+/// single row `[[1.0]]` too).
+fn one_setting(c: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f64>> {
+    let np = c.py().import("numpy")?;
+    let a = np
+        .call_method1("asarray", (c, "float64"))
+        .map_err(|e| err(format!("{name}: expected control values NumPy reads as numbers: {}", e.value(c.py()))))?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    if shape.len() > 1 && shape[..shape.len() - 1].iter().any(|&n| n != 1) {
+        return Err(err(format!(
+            "{name}: an array of shape {shape:?}; expected one value per control input (several segments: fit_segments)"
+        )));
+    }
+    np.call_method1("ravel", (a,))?.call_method0("tolist")?.extract()
+}
+
+/// The channels' names a table carries: a pandas DataFrame's columns (or a
+/// Series' name), when there are `d` of them.
+fn column_names(y: &Bound<'_, PyAny>, d: usize) -> Option<Vec<String>> {
+    let names: Vec<String> = if let Ok(cols) = y.getattr("columns") {
+        cols.try_iter().ok()?.map(|c| c.and_then(|c| c.str().map(|s| s.to_string()))).collect::<PyResult<_>>().ok()?
+    } else if y.hasattr("to_numpy").unwrap_or(false) && y.hasattr("name").unwrap_or(false) {
+        let n = y.getattr("name").ok()?;
+        if n.is_none() {
+            return None;
+        }
+        vec![n.str().ok()?.to_string()]
+    } else {
+        return None;
+    };
+    (names.len() == d).then_some(names)
+}
+
+/// What `fit` and `fit_segments` share: the request checked at once, then the training off the GIL.
+#[allow(clippy::too_many_arguments)]
+fn fit_on(
+    py: Python<'_>,
+    segs: Vec<(Vec<f64>, usize, usize)>,
+    labels: Vec<String>,
+    ctl: Vec<Vec<f64>>,
+    rate_hz: f64,
+    channels: Option<Vec<String>>,
+    control_names: Option<Vec<String>>,
+    seed: Option<&Bound<'_, PyAny>>,
+    config: Option<&Bound<'_, PyDict>>,
+) -> PyResult<TrainedCpg> {
+    let seed = match seed {
+        Some(s) => int_arg(s, "seed", 0, u64::MAX)?,
+        None => 1,
     };
     let overrides = match config {
         Some(cfg) => match to_toml(cfg.as_any(), "")? {
@@ -411,7 +583,7 @@ pub(crate) fn fit(
         None => None,
     };
     let request = cpg_lab::fit::FitRequest {
-        labels: (0..segs.len()).map(which).collect(),
+        labels,
         segments: segs
             .into_iter()
             .zip(ctl)
@@ -426,6 +598,5 @@ pub(crate) fn fit(
     };
     // Checked at once, before the work.
     cpg_lab::fit::check(&request).map_err(err)?;
-    let m = interruptible(py, move |_| cpg_lab::fit::fit(request))?.map_err(err)?;
-    Ok(Model::of(m))
+    interruptible(py, move |_| cpg_lab::fit::fit(request))?.map_err(err)
 }

@@ -145,11 +145,12 @@ pub(crate) fn read_motion(
     bvh_unit_mm: Option<f64>,
 ) -> PyResult<Motion> {
     let rate_hz = rate_hz.map(|r| rate_arg(r, "rate_hz")).transpose()?;
-    let r = py
-        .detach(|| {
-            cpg_mocap::read_recording(&path, skeleton.as_deref(), rate_hz, &BvhOptions { length_unit_mm: bvh_unit_mm })
-        })
-        .map_err(err)?;
+    // Off the GIL on a thread of its own, so that Ctrl-C is answered while a large file is parsed
+    // (every parse is bounded: it finishes soon after, unseen).
+    let r = interruptible(py, move |_| {
+        cpg_mocap::read_recording(&path, skeleton.as_deref(), rate_hz, &BvhOptions { length_unit_mm: bvh_unit_mm })
+    })?
+    .map_err(err)?;
     let format = match r.format {
         cpg_mocap::Format::Amc => "amc".to_owned(),
         cpg_mocap::Format::Bvh { length_unit_mm, inferred } => {

@@ -47,6 +47,14 @@ pub(crate) fn check_out<'py>(o: &Bound<'py, PyAny>, d: usize) -> PyResult<Bound<
     if a.len() != d {
         return Err(err(format!("out: expected a float64 array of shape ({d},), got {}", describe(o))));
     }
+    // Checked before the step is taken: a step whose output cannot be kept would be lost.
+    let writeable = o.getattr("flags").and_then(|f| f.getattr("writeable")).and_then(|w| w.extract::<bool>());
+    if !writeable.unwrap_or(false) {
+        return Err(err("out: the array is read-only (its flags.writeable is False); no step was taken"));
+    }
+    if !a.is_contiguous() {
+        return Err(err("out: expected a contiguous float64 array; no step was taken"));
+    }
     Ok(a.clone())
 }
 

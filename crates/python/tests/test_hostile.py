@@ -68,9 +68,9 @@ def test_integer_arguments_are_checked_not_overflowed(model):
 
 def test_sizes_are_bounded_before_any_work():
     with pytest.raises(cpg.CpgError, match="segments: 10000 arrays; expected 1 to 1000"):
-        cpg.fit(segments=[sine(100)] * 10000, rate_hz=120.0)
+        cpg.fit_segments([sine(100)] * 10000, rate_hz=120.0)
     with pytest.raises(cpg.CpgError, match="training sequence would have 2200000 samples"):
-        cpg.fit(segments=[sine(100)] * 1000, rate_hz=120.0, config={"data": {"repeats": 1, "morph_s": 0, "samples_per_segment": 2200}})
+        cpg.fit_segments([sine(100)] * 1000, rate_hz=120.0, config={"data": {"repeats": 1, "morph_s": 0, "samples_per_segment": 2200}})
 
 
 def test_ctrl_c_stops_a_long_free_run_at_once(tmp_path, femur_model):
@@ -103,7 +103,7 @@ def test_a_name_no_model_file_can_hold_is_refused_when_it_enters(name):
     with pytest.raises(cpg.CpgError, match=r"channels\[0\]: channel or control name"):
         cpg.fit(sine(), 120.0, channels=[name])
     with pytest.raises(cpg.CpgError, match=r"control_names\[0\]"):
-        cpg.fit(segments=[sine(), sine()], rate_hz=120.0, controls=[[0.0], [1.0]], control_names=[name])
+        cpg.fit_segments([sine(), sine()], rate_hz=120.0, controls=[[0.0], [1.0]], control_names=[name])
 
 
 def test_a_good_model_is_not_destroyed_by_a_failed_save(tmp_path, model):
@@ -245,7 +245,7 @@ def test_steps_and_ticks_take_lists_and_out_says_what_it_needs(model):
 
 def test_controls_take_lists_and_float32(walk):
     y = [walk.select(["lfemur.rx"]).values] * 2
-    m = cpg.fit(segments=y, rate_hz=120.0, controls=[[1.0, 0.0], [0.0, 1.0]], config={"reservoir": {"n_neurons": 30}})
+    m = cpg.fit_segments(y, rate_hz=120.0, controls=[[1.0, 0.0], [0.0, 1.0]], config={"reservoir": {"n_neurons": 30}})
     g1, g2 = m.generator(), m.generator()
     for _ in range(20):
         assert np.array_equal(g1.step([1, 0]), g2.step(np.array([1.0, 0.0], dtype=np.float32)))

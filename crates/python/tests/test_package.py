@@ -30,18 +30,20 @@ def test_motions_read_from_amc_and_bvh_agree(walk, tmp_path):
 
 
 def test_fit_checks_shapes_at_once():
-    with pytest.raises(cpg.CpgError, match="shape \\(2, 3, 4\\).*segments=\\[...\\]"):
+    with pytest.raises(cpg.CpgError, match="shape \\(2, 3, 4\\).*fit_segments"):
         cpg.fit(np.zeros((2, 3, 4)), 120.0)
     with pytest.raises(cpg.CpgError, match="channels: 2 names for 1 columns"):
         cpg.fit(np.zeros((100, 1)), 120.0, channels=["a", "b"])
     with pytest.raises(cpg.CpgError, match="segments\\[1\\] has 2 channels"):
-        cpg.fit(segments=[np.zeros((100, 1)), np.zeros((100, 2))], rate_hz=120.0)
+        cpg.fit_segments([np.zeros((100, 1)), np.zeros((100, 2))], rate_hz=120.0)
     bad = np.zeros((100, 1))
     bad[7, 0] = np.nan
     with pytest.raises(cpg.CpgError, match="frame 7, channel 0 \\(y0\\) is NaN"):
         cpg.fit(bad, 120.0)
-    with pytest.raises(cpg.CpgError, match="2 settings for 1 segments"):
+    with pytest.raises(cpg.CpgError, match="expected one value per control input \\(several segments: fit_segments\\)"):
         cpg.fit(np.zeros((100, 1)), 120.0, controls=[[1.0], [0.0]])
+    with pytest.raises(cpg.CpgError, match="2 settings for 1 segments"):
+        cpg.fit_segments([np.zeros((100, 1))], 120.0, controls=[[1.0], [0.0]])
     with pytest.raises(cpg.CpgError, match="`reservoir.n_neurons` 1000000000; expected 1 ..= 20000"):
         cpg.fit(np.sin(np.arange(600) / 20.0)[:, None], 120.0, config={"reservoir": {"n_neurons": 10**9}})
     # A ValueError, for code that catches those.

@@ -211,6 +211,9 @@ fn batch<R: SimdDot>(runs: &[Run<'_>], threads: usize) -> Vec<Result<Vec<f64>>> 
         parts.into_iter().for_each(run);
     }
     drop(bounded);
+    if crate::watch::requested() {
+        return runs.iter().map(|_| Err(Error::Cancelled)).collect();
+    }
     let diverged: Vec<Option<usize>> = recorders.iter().map(|r| r.diverged).collect();
     outputs
         .into_iter()

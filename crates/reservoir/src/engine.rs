@@ -362,6 +362,37 @@ impl<R, F: FnMut(usize, &[R]) -> bool> Observer<R> for F {
     }
 }
 
+/// What a free-run loop steps in, allocated once before its first step:
+/// every column's state (started at its `x0`) and products, padded to `np`
+/// rows each, and its outputs, fed-back values and inputs; one control row.
+struct StepBuffers<R> {
+    xs: Aligned<R>,
+    pre: Aligned<R>,
+    ys: Vec<R>,
+    fed: Vec<R>,
+    us: Vec<R>,
+    ctl: Vec<f64>,
+}
+
+impl<R: SimdDot> StepBuffers<R> {
+    fn new(shared: &Shared<R>, columns: &[Column<'_, R>]) -> StepBuffers<R> {
+        let Shared { n, np, d, u, .. } = *shared;
+        let k = columns.len();
+        let mut xs = Aligned::zeros(np * k);
+        for (c, col) in columns.iter().enumerate() {
+            xs.as_mut_slice()[c * np..c * np + n].copy_from_slice(&col.x0[..n]);
+        }
+        StepBuffers {
+            xs,
+            pre: Aligned::zeros(np * k),
+            ys: vec![R::ZERO; d * k],
+            fed: vec![R::ZERO; d * k],
+            us: vec![R::ZERO; u * k],
+            ctl: vec![0.0; u],
+        }
+    }
+}
+
 /// Advances `columns` together for `steps` steps, one product `Ŵ·[x_1 … x_K]`
 /// per step; `observers[c]` sees column `c`'s outputs, and a column whose
 /// observer returns `false` is advanced no further (the product shrinks).
@@ -395,17 +426,9 @@ fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
 ) {
     let Shared { n, np, d, u, .. } = *shared;
     let k = columns.len();
-    let mut xs_buf = Aligned::zeros(np * k);
-    let xs = xs_buf.as_mut_slice();
-    for (c, col) in columns.iter().enumerate() {
-        xs[c * np..c * np + n].copy_from_slice(&col.x0[..n]);
-    }
-    let mut pre_buf = Aligned::zeros(np * k);
-    let pre = pre_buf.as_mut_slice();
-    let mut ys = vec![R::ZERO; d * k];
-    let mut fed = vec![R::ZERO; d * k];
-    let mut us = vec![R::ZERO; u * k];
-    let mut ctl = vec![0.0; u];
+    let mut bufs = StepBuffers::new(shared, columns);
+    let StepBuffers { xs, pre, ys, fed, us, ctl } = &mut bufs;
+    let (xs, pre) = (xs.as_mut_slice(), pre.as_mut_slice());
     let mut noise = vec![R::ZERO; n];
     let mut rngs: Vec<Option<(ChaCha8Rng, f64)>> = columns
         .iter()
@@ -419,7 +442,13 @@ fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
     let mut slot_of: Vec<usize> = (0..k).collect();
     let mut stopped = vec![false; k];
     let mut live = k;
+    let watch = crate::watch::current();
+    let mut ran = 0;
     for s in 0..steps {
+        if crate::watch::stop_at(&watch, s, live) {
+            break;
+        }
+        ran = s + 1;
         let mut i = 0;
         while i < live {
             if !stopped[i] {
@@ -442,7 +471,7 @@ fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
             let y = &mut ys[i * d..(i + 1) * d];
             col.readout.apply(simd, &xs[i * np..i * np + n], y);
             stopped[i] = !observers[c].see(s, y);
-            col.inputs(s, y, &mut fed[i * d..(i + 1) * d], &mut us[i * u..(i + 1) * u], &mut ctl);
+            col.inputs(s, y, &mut fed[i * d..(i + 1) * d], &mut us[i * u..(i + 1) * u], ctl);
         }
         shared.product(simd, &xs[..live * np], &mut pre[..live * np], (0, np));
         for i in 0..live {
@@ -469,6 +498,7 @@ fn run_columns_simd<S: Simd, R: SimdDot, O: Observer<R>>(
             );
         }
     }
+    crate::watch::finish(&watch, ran, live);
 }
 
 /// A value alone on its cache lines, so that two cores writing neighbours do
@@ -490,6 +520,94 @@ fn wait_for(flag: &std::sync::atomic::AtomicUsize, at: usize) {
     }
 }
 
+/// One half of a split run: its rows of every step, on its own thread
+/// (`observers` only on the calling thread's half).
+struct SplitHalf<'a, 'b, R: SimdDot, O> {
+    shared: &'a Shared<R>,
+    columns: &'a [Column<'b, R>],
+    observers: Option<&'a mut [O]>,
+    steps: usize,
+    t: usize,
+    rows: [(usize, usize); 2],
+    boxes: &'a [[Line<std::sync::Mutex<Vec<R>>>; 2]; 2],
+    done: &'a [Line<std::sync::atomic::AtomicUsize>; 2],
+    stop: &'a std::sync::atomic::AtomicBool,
+    watch: &'a Option<std::sync::Arc<crate::watch::Watch>>,
+}
+impl<R: SimdDot, O: Observer<R>> WithSimd for SplitHalf<'_, '_, R, O> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) {
+        let SplitHalf { shared, columns, mut observers, steps, t, rows, boxes, done, stop, watch } = self;
+        let Shared { n, np, d, u, .. } = *shared;
+        let k = columns.len();
+        let other = 1 - t;
+        let (r0, r1) = rows[t];
+        let (a, b) = (r0.min(n), r1.min(n));
+        let (oa, ob) = (rows[other].0.min(n), rows[other].1.min(n));
+        let mut bufs = StepBuffers::new(shared, columns);
+        let StepBuffers { xs, pre, ys, fed, us, ctl } = &mut bufs;
+        let (xs, pre) = (xs.as_mut_slice(), pre.as_mut_slice());
+        let mut stopped = vec![false; k];
+        let mut live = k;
+        for s in 0..steps {
+            // The calling thread's half (the one with observers) looks at the caller's flag.
+            if observers.is_some() && crate::watch::stop_at(watch, s, live) {
+                live = 0;
+            }
+            for (c, col) in columns.iter().enumerate() {
+                let y = &mut ys[c * d..(c + 1) * d];
+                col.readout.apply(simd, &xs[c * np..c * np + n], y);
+                if let Some(obs) = observers.as_deref_mut()
+                    && live > 0
+                    && !stopped[c]
+                    && !obs[c].see(s, y)
+                {
+                    stopped[c] = true;
+                    live -= 1;
+                }
+                col.inputs(s, y, &mut fed[c * d..(c + 1) * d], &mut us[c * u..(c + 1) * u], ctl);
+            }
+            if live == 0 {
+                if observers.is_some() {
+                    crate::watch::finish(watch, s, k);
+                }
+                stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                done[t].0.store(s + 1, std::sync::atomic::Ordering::Release);
+                return;
+            }
+            shared.product(simd, xs, pre, (r0, r1));
+            for (c, col) in columns.iter().enumerate() {
+                let at = c * np;
+                col.dynamics.finish_rows(
+                    a,
+                    &mut xs[at + a..at + b],
+                    &mut pre[at + a..at + b],
+                    &fed[c * d..(c + 1) * d],
+                    &us[c * u..(c + 1) * u],
+                    None,
+                );
+            }
+            let slot = (s + 1) % 2;
+            if let Ok(mut m) = boxes[t][slot].0.lock() {
+                for (c, dst) in m.chunks_exact_mut((b - a).max(1)).enumerate().take(k) {
+                    dst.copy_from_slice(&xs[c * np + a..c * np + b]);
+                }
+            }
+            done[t].0.store(s + 1, std::sync::atomic::Ordering::Release);
+            wait_for(&done[other].0, s + 1);
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return;
+            }
+            if let Ok(m) = boxes[other][slot].0.lock() {
+                for (c, src) in m.chunks_exact((ob - oa).max(1)).enumerate().take(k) {
+                    xs[c * np + oa..c * np + ob].copy_from_slice(src);
+                }
+            }
+        }
+    }
+}
+
 /// Noise-free free runs split over two threads, each computing half of the
 /// rows of `Ŵ·X` for every column (so each core keeps its half of `Ŵ` in its
 /// own cache) and finishing those neurons; after every step the two halves of
@@ -504,7 +622,7 @@ pub(crate) fn run_split<R: SimdDot, O: Observer<R>>(
     steps: usize,
 ) {
     use std::sync::Mutex;
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    use std::sync::atomic::{AtomicBool, AtomicUsize};
     assert_eq!(columns.len(), observers.len());
     let Shared { n, np, .. } = *shared;
     let k = columns.len();
@@ -523,92 +641,20 @@ pub(crate) fn run_split<R: SimdDot, O: Observer<R>>(
     });
     let done = [Line(AtomicUsize::new(0)), Line(AtomicUsize::new(0))];
     let stop = AtomicBool::new(false);
+    let watch = crate::watch::current();
     let half = |t: usize, observers: Option<&mut [O]>| {
-        struct Op<'a, 'b, R: SimdDot, O> {
-            shared: &'a Shared<R>,
-            columns: &'a [Column<'b, R>],
-            observers: Option<&'a mut [O]>,
-            steps: usize,
-            t: usize,
-            rows: [(usize, usize); 2],
-            boxes: &'a [[Line<Mutex<Vec<R>>>; 2]; 2],
-            done: &'a [Line<AtomicUsize>; 2],
-            stop: &'a AtomicBool,
-        }
-        impl<R: SimdDot, O: Observer<R>> WithSimd for Op<'_, '_, R, O> {
-            type Output = ();
-            #[inline(always)]
-            fn with_simd<S: Simd>(self, simd: S) {
-                let Op { shared, columns, mut observers, steps, t, rows, boxes, done, stop } = self;
-                let Shared { n, np, d, u, .. } = *shared;
-                let k = columns.len();
-                let other = 1 - t;
-                let (r0, r1) = rows[t];
-                let (a, b) = (r0.min(n), r1.min(n));
-                let (oa, ob) = (rows[other].0.min(n), rows[other].1.min(n));
-                let mut xs_buf = Aligned::zeros(np * k);
-                let xs = xs_buf.as_mut_slice();
-                for (c, col) in columns.iter().enumerate() {
-                    xs[c * np..c * np + n].copy_from_slice(&col.x0[..n]);
-                }
-                let mut pre_buf = Aligned::zeros(np * k);
-                let pre = pre_buf.as_mut_slice();
-                let mut ys = vec![R::ZERO; d * k];
-                let mut fed = vec![R::ZERO; d * k];
-                let mut us = vec![R::ZERO; u * k];
-                let mut ctl = vec![0.0; u];
-                let mut stopped = vec![false; k];
-                let mut live = k;
-                for s in 0..steps {
-                    for (c, col) in columns.iter().enumerate() {
-                        let y = &mut ys[c * d..(c + 1) * d];
-                        col.readout.apply(simd, &xs[c * np..c * np + n], y);
-                        if let Some(obs) = observers.as_deref_mut()
-                            && !stopped[c]
-                            && !obs[c].see(s, y)
-                        {
-                            stopped[c] = true;
-                            live -= 1;
-                        }
-                        col.inputs(s, y, &mut fed[c * d..(c + 1) * d], &mut us[c * u..(c + 1) * u], &mut ctl);
-                    }
-                    if live == 0 {
-                        stop.store(true, Ordering::Relaxed);
-                        done[t].0.store(s + 1, Ordering::Release);
-                        return;
-                    }
-                    shared.product(simd, xs, pre, (r0, r1));
-                    for (c, col) in columns.iter().enumerate() {
-                        let at = c * np;
-                        col.dynamics.finish_rows(
-                            a,
-                            &mut xs[at + a..at + b],
-                            &mut pre[at + a..at + b],
-                            &fed[c * d..(c + 1) * d],
-                            &us[c * u..(c + 1) * u],
-                            None,
-                        );
-                    }
-                    let slot = (s + 1) % 2;
-                    if let Ok(mut m) = boxes[t][slot].0.lock() {
-                        for (c, dst) in m.chunks_exact_mut((b - a).max(1)).enumerate().take(k) {
-                            dst.copy_from_slice(&xs[c * np + a..c * np + b]);
-                        }
-                    }
-                    done[t].0.store(s + 1, Ordering::Release);
-                    wait_for(&done[other].0, s + 1);
-                    if stop.load(Ordering::Relaxed) {
-                        return;
-                    }
-                    if let Ok(m) = boxes[other][slot].0.lock() {
-                        for (c, src) in m.chunks_exact((ob - oa).max(1)).enumerate().take(k) {
-                            xs[c * np + oa..c * np + ob].copy_from_slice(src);
-                        }
-                    }
-                }
-            }
-        }
-        shared.arch.dispatch(Op { shared, columns, observers, steps, t, rows, boxes: &boxes, done: &done, stop: &stop })
+        shared.arch.dispatch(SplitHalf {
+            shared,
+            columns,
+            observers,
+            steps,
+            t,
+            rows,
+            boxes: &boxes,
+            done: &done,
+            stop: &stop,
+            watch: &watch,
+        })
     };
     std::thread::scope(|scope| {
         scope.spawn(|| half(1, None));

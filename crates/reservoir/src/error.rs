@@ -60,6 +60,9 @@ pub enum Error {
         /// Step counter of the generator.
         step: u64,
     },
+    /// The caller cancelled its [`crate::watch::Watch`] and the work stopped.
+    #[error("cancelled")]
+    Cancelled,
     /// Bad training settings.
     #[error("invalid training settings: {0}")]
     Settings(String),

@@ -126,9 +126,13 @@ fn learn<R: SimdDot>(
     let mut fed = vec![0.0; d];
     // The last pass's outputs before each correction, and their targets.
     let (mut said, mut meant) = (Vec::new(), Vec::new());
+    let watch = crate::watch::current();
     for pass in 0..force.passes {
         let last = pass + 1 == force.passes;
         for k in 0..t - 1 {
+            if crate::watch::stop_at(&watch, k, 1) {
+                return Err(Error::Cancelled);
+            }
             // The fed-back output: the teacher through the first washout, the network's own after it.
             fed.copy_from_slice(if k < washout { &seq.outputs[k * d..(k + 1) * d] } else { &z });
             engine.teacher_force(&mut x, &fed, &seq.controls[k * u..(k + 1) * u], |_, _| {});

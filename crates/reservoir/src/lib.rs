@@ -41,6 +41,7 @@ mod orbit;
 mod real;
 mod reservoir;
 mod train;
+pub mod watch;
 
 pub use config::{
     Activation, CheckedConfig, Coupling, MAX_NEURONS, MAX_OUTPUTS, Precision, Preset, ReservoirConfig,

@@ -638,6 +638,8 @@ impl TrainedCpg {
 fn io_error(path: &Path, e: cpg_io::Error) -> Error {
     match e {
         cpg_io::Error::Io { path, source } => Error::Io { path, source },
+        // The path is said once: `cpg_io`'s own message already starts with it.
+        cpg_io::Error::NotWritable { reason, .. } => Error::ModelFile { path: path.to_owned(), reason },
         other => Error::ModelFile { path: path.to_owned(), reason: other.to_string() },
     }
 }

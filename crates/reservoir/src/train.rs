@@ -307,6 +307,7 @@ fn harvest_in<R: SimdDot>(
             }
         }
     });
+    crate::watch::check()?;
     let targets = Mat::from_fn(rows, d, |i, j| seq.outputs[(i + washout + 1) * d + j]);
     Ok(Harvest { states, targets })
 }
@@ -418,6 +419,7 @@ pub(crate) fn validate_in<R: SimdDot>(
             Score::Orbit(stays) => score_orbit(&engine.shared, &columns, stays, steps, d),
         }
     });
+    crate::watch::check()?;
     let curve = candidates
         .iter()
         .enumerate()

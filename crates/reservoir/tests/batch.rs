@@ -303,3 +303,44 @@ fn force_learns_a_sine_on_its_own_output() {
     let score = tr.curve.iter().find(|v| v.penalty == tr.penalty).unwrap().nmse;
     assert!(score < 0.01, "the free run's NMSE against the sine: {score}");
 }
+
+/// A watch on the thread sees the steps and can stop the runs: cancelled,
+/// every run of a batch (one thread or split over two) and a training
+/// return `Cancelled`; not cancelled, the outputs are the same bits as
+/// without a watch, and the steps it counted are at most those run.
+#[test]
+fn a_watch_counts_steps_and_a_cancelled_one_stops_the_work() {
+    use cpg_reservoir::watch::{Watch, set_for_this_thread};
+    use std::sync::Arc;
+    let m = model(300, 7, Precision::F64, |_| {});
+    let steps = 5000;
+    let runs = [Run::new(&m, &Ramp, steps), Run::new(&m, &Ramp, steps / 2)];
+    let plain: Vec<Vec<f64>> = free_runs(&runs, 2).into_iter().map(|r| r.unwrap()).collect();
+    let w = Arc::new(Watch::default());
+    set_for_this_thread(Some(w.clone()));
+    for threads in [1, 2] {
+        let watched: Vec<Vec<f64>> = free_runs(&runs, threads).into_iter().map(|r| r.unwrap()).collect();
+        assert_eq!(watched, plain, "a watch changes no bit ({threads} thread(s))");
+    }
+    let counted = w.steps_done();
+    assert!(counted >= 2 * 4096 && counted <= 2 * (steps + steps / 2) as u64, "{counted}");
+    w.cancel();
+    for threads in [1, 2] {
+        for r in free_runs(&runs, threads) {
+            assert!(matches!(r, Err(Error::Cancelled)), "{threads} thread(s)");
+        }
+        // One long run, split by rows over two threads, stops too.
+        let long = [Run::new(&m, &Ramp, 20_000)];
+        assert!(matches!(free_runs(&long, threads).pop().unwrap(), Err(Error::Cancelled)));
+    }
+    let res = Reservoir::new(&ReservoirConfig::wyffels_schrauwen_2009().check().unwrap(), 3).unwrap();
+    let data = TrainingData::nmse(
+        Sequence::outputs_only(sine(800, 0)),
+        Sequence::outputs_only(sine(800, 0)),
+        Sequence::outputs_only(sine(200, 800)),
+    );
+    let settings = TrainSettings { washout: 100, n_noise_draws: 1, ..TrainSettings::wyffels_schrauwen_2009() };
+    assert!(matches!(train(&res, &data, &settings), Err(Error::Cancelled)));
+    set_for_this_thread(None);
+    assert!(train(&res, &data, &settings).is_ok(), "without the watch the same training works");
+}

@@ -253,6 +253,14 @@ fn robot_figure<'a>(
     Ok(Figure { label: label.to_owned(), note: String::new(), names, segments, points_mm: points })
 }
 
+/// Whether a scene of `n_frames` frames whose figures hold `n_points` points
+/// per frame between them fits in [`MAX_VALUES`] coordinates: the check a
+/// caller makes before computing the frames (a model's free run), so that a
+/// stretch too long is refused before the work, not after it.
+pub fn check_scene_size(n_frames: usize, n_points: usize) -> Result<()> {
+    check_frames(n_frames, n_points)
+}
+
 fn check_frames(n_frames: usize, n_points: usize) -> Result<()> {
     if n_frames == 0 {
         return Err(Error::Input("a figure needs at least one frame".into()));

@@ -171,13 +171,50 @@ struct Results {
     tried: Vec<(String, Outcome)>,
     families: Option<FamiliesResult>,
     times: Vec<(String, f64)>,
+    /// Sections that failed, with their errors: the report is written without them.
+    failed: Vec<(String, String)>,
 }
 
-fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
+/// Keeps what a finished section computed: its results as JSON in
+/// `<partial>/results/`, written before the next section starts, so that a
+/// failure later in the run, or the run being stopped, leaves them.
+fn keep_results(partial: &Path, name: &str, value: &impl serde::Serialize) {
+    let dir = partial.join("results");
+    let file = dir.join(format!("{}.json", name.replace(['/', ' ', '+'], "_")));
+    let written = std::fs::create_dir_all(&dir)
+        .map_err(anyhow::Error::from)
+        .and_then(|()| Ok(std::fs::write(&file, serde_json::to_string_pretty(value)?)?));
+    if let Err(e) = written {
+        eprintln!("    warning: could not keep {}'s results in {}: {e:#}", name, file.display());
+    }
+}
+
+/// A section's outcome, kept; or its failure, recorded, so the run goes on to the next section.
+fn settle<T: serde::Serialize>(
+    partial: &Path,
+    name: &str,
+    r: anyhow::Result<T>,
+    failed: &mut Vec<(String, String)>,
+) -> Option<T> {
+    match r {
+        Ok(v) => {
+            keep_results(partial, name, &v);
+            Some(v)
+        }
+        Err(e) => {
+            eprintln!("    FAILED: {name}: {e:#}\n    (the run goes on; this section is left out of the report)");
+            failed.push((name.to_owned(), format!("{e:#}")));
+            None
+        }
+    }
+}
+
+fn run_all_configs(args: &Args, partial: &Path) -> anyhow::Result<Results> {
     let dir = crate::root().join("experiments");
     let opts = Options { quick: args.quick, threads: crate::cores() };
     let mut times = Vec::new();
     let mut main = Vec::new();
+    let mut failed = Vec::new();
     let wants = |part: Part| args.experiment == Part::All || args.experiment == part;
     if !args.configs.is_empty() || wants(Part::Reservoir) {
         eprintln!("reservoir experiments (wyffels & Schrauwen 2009)");
@@ -193,16 +230,23 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
             // E6 with the paper's protocol and with ours draw the same reservoirs:
             // their seeds run together, one pass over the weights for both.
             if i + 1 < paths.len() && experiment::share_reservoirs(&configs[i], &configs[i + 1]) {
-                main.extend(run_pair(&paths[i..i + 2], &configs[i..i + 2], opts, &mut times)?);
+                let names: Vec<String> = paths[i..i + 2].iter().map(|p| rel(p)).collect();
+                let r = run_pair(&paths[i..i + 2], &configs[i..i + 2], opts, &mut times);
+                if let Some(pair) = settle(partial, &names.join(" + "), r, &mut failed) {
+                    main.extend(pair);
+                }
                 i += 2;
             } else {
-                main.push((rel(&paths[i]), run_config(&paths[i], opts, &mut times)?));
+                let name = rel(&paths[i]);
+                if let Some(o) = settle(partial, &name, run_config(&paths[i], opts, &mut times), &mut failed) {
+                    main.push((name, o));
+                }
                 i += 1;
             }
         }
     }
     if !args.configs.is_empty() {
-        return Ok(Results { main, tried: Vec::new(), families: None, times });
+        return Ok(Results { main, tried: Vec::new(), families: None, times, failed });
     }
     let families = if wants(Part::Families) {
         eprintln!("generator families (Vakulenko et al. 2017)");
@@ -213,9 +257,9 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
             Outcome::Coupling(r) if n.ends_with("e6.toml") => r.trained.as_ref(),
             _ => None,
         });
-        let r = experiment::families::run(&fc, e6, opts, &Bars)?;
+        let r = experiment::families::run(&fc, e6, opts, &Bars).map_err(anyhow::Error::from);
         times.push((rel(&p), t.elapsed().as_secs_f64()));
-        Some(r)
+        settle(partial, &rel(&p), r, &mut failed)
     } else {
         None
     };
@@ -223,22 +267,27 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
         for p in reservoir_experiments()?.into_iter().filter(|p| is_walking(p)) {
             eprintln!("walking in physics (the HOAP-2 in MuJoCo): {}", rel(&p));
             let t = Instant::now();
-            let c = Config::load(&p)?;
             let work = crate::root().join("target").join("walking");
-            std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
-            let r =
-                walking::run(&work, &c, args.quick, opts.threads).with_context(|| format!("running {}", rel(&p)))?;
-            let o = Outcome::Walking(Box::new(r));
-            let (k, n) = o.passed();
-            eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
+            let r = (|| {
+                let c = Config::load(&p)?;
+                std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
+                walking::run(&work, &c, args.quick, opts.threads).with_context(|| format!("running {}", rel(&p)))
+            })();
             times.push((rel(&p), t.elapsed().as_secs_f64()));
-            main.push((rel(&p), o));
+            if let Some(r) = settle(partial, &rel(&p), r, &mut failed) {
+                let o = Outcome::Walking(Box::new(r));
+                let (k, n) = o.passed();
+                eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
+                main.push((rel(&p), o));
+            }
         }
     }
     if wants(Part::WholeBody) {
         for p in reservoir_experiments()?.into_iter().filter(|p| is_whole_body(p)) {
             eprintln!("the whole body in one generator");
-            main.push((rel(&p), run_config(&p, opts, &mut times)?));
+            if let Some(o) = settle(partial, &rel(&p), run_config(&p, opts, &mut times), &mut failed) {
+                main.push((rel(&p), o));
+            }
         }
     }
     let mut tried = Vec::new();
@@ -251,10 +300,12 @@ fn run_all_configs(args: &Args) -> anyhow::Result<Results> {
             .collect();
         files.sort();
         for p in files {
-            tried.push((rel(&p), run_config(&p, opts, &mut times)?));
+            if let Some(o) = settle(partial, &rel(&p), run_config(&p, opts, &mut times), &mut failed) {
+                tried.push((rel(&p), o));
+            }
         }
     }
-    Ok(Results { main, tried, families, times })
+    Ok(Results { main, tried, families, times, failed })
 }
 
 /// Where the papers' texts are (`$CPG_PAPERS_DIR`, else `shared/papers` beside the checkout).
@@ -449,6 +500,17 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
             None => format!("the papers' texts were not found at `{}`, so the quotations were not checked by this run.", papers_dir().display()),
         }));
     md.blank();
+    if !r.failed.is_empty() {
+        md.line(format!(
+            "**{} section(s) of this run failed and are not in this report** (the others are complete):",
+            r.failed.len()
+        ));
+        md.blank();
+        for (name, e) in &r.failed {
+            md.line(format!("- `{name}`: {}", e.replace('\n', " ")));
+        }
+        md.blank();
+    }
     summary::summary(&mut md, &r.main, r.families.as_ref());
     md.line("## How to read this report");
     md.blank();
@@ -500,6 +562,7 @@ fn metrics(r: &Results, info: &RunInfo) -> anyhow::Result<String> {
         "experiments": map(&r.main),
         "tried": map(&r.tried),
         "families": r.families,
+        "failed": r.failed,
     }))?)
 }
 
@@ -524,7 +587,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let tmp = out.with_extension("partial");
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-    let mut results = run_all_configs(args)?;
+    let mut results = run_all_configs(args, &tmp)?;
     let claims = results
         .main
         .iter()
@@ -546,5 +609,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     std::fs::rename(&tmp, &out).with_context(|| format!("moving the report into {}", out.display()))?;
     eprintln!("report written to {} in {:.0} s", rel(&out), start.elapsed().as_secs_f64());
+    if !results.failed.is_empty() {
+        let names: Vec<&str> = results.failed.iter().map(|(n, _)| n.as_str()).collect();
+        anyhow::bail!(
+            "{} section(s) failed and are left out of the report (each named there with its error): {}",
+            names.len(),
+            names.join(", ")
+        );
+    }
     Ok(())
 }

@@ -354,3 +354,39 @@ fn the_run_is_dated_by_the_calendar() {
         assert!(v.get(k).is_some(), "metrics.json's run lacks {k}");
     }
 }
+
+/// A section that fails late in the run loses only itself: each finished
+/// section's results are kept on disk as they finish, the failure is
+/// recorded with its error, and the report says which sections it lacks.
+#[test]
+fn a_failed_section_is_left_out_and_the_finished_ones_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut failed = Vec::new();
+    let kept = super::settle(dir.path(), "experiments/e1.toml", Ok(stability("ours")), &mut failed);
+    assert!(kept.is_some() && failed.is_empty());
+    let saved = std::fs::read_to_string(dir.path().join("results/experiments_e1.toml.json")).unwrap();
+    assert!(saved.contains("\"seeds\""), "the finished section's results are on disk");
+    let lost: Option<StabilityResult> = super::settle(
+        dir.path(),
+        "experiments/hoap2-walk.toml",
+        Err(anyhow::anyhow!("the simulator was not found")),
+        &mut failed,
+    );
+    assert!(lost.is_none());
+    assert_eq!(failed, vec![("experiments/hoap2-walk.toml".to_owned(), "the simulator was not found".to_owned())]);
+    let args = <super::Args as clap::FromArgMatches>::from_arg_matches(
+        &<super::Args as clap::Args>::augment_args(clap::Command::new("x")).get_matches_from(["x"]),
+    )
+    .unwrap();
+    let r = super::Results {
+        main: vec![("experiments/e1.toml".into(), Outcome::Stability(Box::new(kept.unwrap())))],
+        tried: Vec::new(),
+        families: None,
+        times: Vec::new(),
+        failed,
+    };
+    let info = super::run_info(&[], 1.0, None);
+    let md = super::render(&args, &r, dir.path(), &info).unwrap();
+    assert!(md.contains("1 section(s) of this run failed"), "{md}");
+    assert!(md.contains("`experiments/hoap2-walk.toml`: the simulator was not found"), "{md}");
+}

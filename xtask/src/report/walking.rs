@@ -15,9 +15,8 @@ use crate::process::cmd;
 pub fn run(work: &Path, c: &Config, quick: bool, threads: usize) -> anyhow::Result<WalkingResult> {
     let Some(e) = &c.experiment else { bail!("{}: no [experiment]", c.source.display()) };
     let ExperimentTest::Walking(t) = &e.test else { bail!("{}: not a walking experiment", c.source.display()) };
-    let root = crate::root();
     let py = crate::python::install().context("installing the Python package the simulations run in")?;
-    let cpg_bin = root.join("target/release/cpg");
+    let cpg_bin = crate::release_binary("cpg");
     let cpg = cpg_bin.display().to_string();
     let w = |name: &str| work.join(name).display().to_string();
     let path = |p: &Path| p.display().to_string();

@@ -54,8 +54,12 @@ fn skeleton_tree(out: &mut impl Write, sk: &Skeleton) -> anyhow::Result<()> {
     let n_dofs = sk.root.order.len() + sk.bones.iter().map(|b| b.dofs.len()).sum::<usize>();
     writeln!(out, "{} bones, {} channels per frame", sk.bones.len(), n_dofs)?;
     writeln!(out, "root [{}]", order.join(" "))?;
-    let children =
-        |p: Option<usize>| -> Vec<usize> { (0..sk.bones.len()).filter(|&c| sk.bones[c].parent == p).collect() };
+    // Children lists once: a tree of thousands of bones prints in linear time.
+    let mut kids: Vec<Vec<usize>> = vec![Vec::new(); sk.bones.len() + 1];
+    for (c, b) in sk.bones.iter().enumerate() {
+        kids[b.parent.map_or(0, |p| p + 1)].push(c);
+    }
+    let children = |p: Option<usize>| -> Vec<usize> { kids[p.map_or(0, |p| p + 1)].clone() };
     let mut stack: Vec<(usize, usize)> = children(None).into_iter().rev().map(|c| (c, 1)).collect();
     while let Some((b, depth)) = stack.pop() {
         let bone = &sk.bones[b];
@@ -72,7 +76,8 @@ fn skeleton_tree(out: &mut impl Write, sk: &Skeleton) -> anyhow::Result<()> {
         writeln!(
             out,
             "{}{} (length {:.1} mm) [{}]",
-            "  ".repeat(depth),
+            // Indentation shows the depth up to 32 levels (a human figure has 8); deeper bones say theirs.
+            if depth <= 32 { "  ".repeat(depth) } else { format!("{}[depth {depth}] ", "  ".repeat(32)) },
             bone.name,
             bone.length * sk.mm_per_unit(),
             dof_text

@@ -41,9 +41,6 @@ fn create_model_dir(model: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The worst validation score `cpg train` accepts without `--allow-unstable`.
-const UNSTABLE_SCORE: f64 = 1.0;
-
 /// `cpg train`.
 pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyhow::Result<()> {
     let mut c = Config::load(config)?;
@@ -88,12 +85,8 @@ pub fn train(config: &Path, output: Option<&Path>, allow_unstable: bool) -> anyh
     };
     let pv = &model.provenance;
     let best = pv.validation_curve.iter().map(|v| v.nmse).fold(f64::INFINITY, f64::min);
-    if best.is_nan() || best > UNSTABLE_SCORE {
-        let msg = format!(
-            "{}: the best validation score is {best:.4} (penalty {:.2e}), worse than {UNSTABLE_SCORE} (a flat line at the mean scores 1): the free run does not follow the teacher",
-            config.display(),
-            pv.chosen_penalty
-        );
+    if let Some(why) = cpg_lab::train::unstable(&model) {
+        let msg = format!("{}: {why}", config.display());
         if !allow_unstable {
             bail!(
                 "{msg}. Nothing was written; `--allow-unstable` writes the model anyway, `cpg tune --config {}` searches for settings that work",

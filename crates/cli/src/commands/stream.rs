@@ -4,7 +4,6 @@
 
 use std::io::{BufRead, Write};
 use std::path::Path;
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
@@ -26,10 +25,23 @@ pub struct Stream<'a> {
 /// Lateness of a tick, in whole microseconds, counted up to this bound (the last bucket holds the rest).
 const MAX_LATENESS_US: usize = 100_000;
 
-/// What arrives from the reader thread.
-enum Input {
-    Controls(Vec<f64>),
-    Closed,
+/// What the reader thread leaves for the loop: the newest control values
+/// (absolute, so only the newest matters), how many values were replaced
+/// before a tick read them, and whether the input has ended. One slot, not a
+/// queue: input that arrives faster than the ticks (`yes 1,0 | cpg stream`)
+/// costs no memory and makes no tick late.
+#[derive(Default)]
+struct Inbox {
+    newest: Option<Vec<f64>>,
+    dropped: u64,
+    closed: bool,
+}
+
+/// The slot shared by the reader thread and the loop.
+type Shared = std::sync::Arc<std::sync::Mutex<Inbox>>;
+
+fn inbox(s: &Shared) -> std::sync::MutexGuard<'_, Inbox> {
+    s.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The longest control line read; a longer one is reported and skipped.
@@ -68,10 +80,10 @@ fn bounded_line(r: &mut impl BufRead, max: usize, buf: &mut Vec<u8>) -> std::io:
     }
 }
 
-/// Reads control lines from standard input and sends the controls after
-/// each. A bad line (not UTF-8, too long, not controls) is reported and
-/// skipped; reading goes on.
-fn read_controls(names: Vec<String>, start: Vec<f64>, tx: mpsc::Sender<Input>) {
+/// Reads control lines from standard input and leaves the controls after
+/// each in the slot (replacing values no tick has read yet). A bad line (not
+/// UTF-8, too long, not controls) is reported and skipped; reading goes on.
+fn read_controls(names: Vec<String>, start: Vec<f64>, slot: Shared) {
     let stdin = std::io::stdin();
     let mut r = stdin.lock();
     let mut current = start;
@@ -99,14 +111,19 @@ fn read_controls(names: Vec<String>, start: Vec<f64>, tx: mpsc::Sender<Input>) {
         }
         match ControlSchedule::parse_update(text, &names, &mut current) {
             Ok(()) => {
-                if tx.send(Input::Controls(current.clone())).is_err() {
-                    return;
+                let mut b = inbox(&slot);
+                match &mut b.newest {
+                    Some(v) => {
+                        v.copy_from_slice(&current);
+                        b.dropped += 1;
+                    }
+                    None => b.newest = Some(current.clone()),
                 }
             }
             Err(e) => eprintln!("warning: standard input line {k}: {}; ignored", crate::show(&e.to_string())),
         }
     }
-    let _ = tx.send(Input::Closed);
+    inbox(&slot).closed = true;
 }
 
 /// Waits until `deadline`: sleeps until shortly before it (a sleep may
@@ -178,9 +195,10 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
 
     // From here a signal ends the loop as its last tick would, with the report.
     crate::output::interruptible();
-    let (tx, rx) = mpsc::channel();
+    let slot: Shared = Shared::default();
     let (names, start) = (m.controls.clone(), controls.clone());
-    std::thread::spawn(move || read_controls(names, start, tx));
+    let reader = slot.clone();
+    std::thread::spawn(move || read_controls(names, start, reader));
 
     let mut lateness = vec![0u32; MAX_LATENESS_US + 1];
     let mut missed = 0u64;
@@ -194,12 +212,13 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
         if n_ticks.is_some_and(|n| tick >= n) || (n_ticks.is_none() && !stdin_open) || crate::output::interrupted() {
             break;
         }
-        // New control values, if any arrived.
-        while let Ok(msg) = rx.try_recv() {
-            match msg {
-                Input::Controls(v) => controls.copy_from_slice(&v),
-                Input::Closed => stdin_open = false,
+        // The newest control values, if any arrived.
+        {
+            let mut b = inbox(&slot);
+            if let Some(v) = b.newest.take() {
+                controls.copy_from_slice(&v);
             }
+            stdin_open = !b.closed;
         }
         let t_s = ticker.time_s();
         let values = ticker.tick(&controls).context("the model diverged")?;
@@ -251,6 +270,12 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
         );
     } else {
         eprintln!("{tick} ticks at {rate} Hz, unpaced (--no-pacing)");
+    }
+    let dropped = inbox(&slot).dropped;
+    if dropped > 0 {
+        eprintln!(
+            "{dropped} control line(s) were replaced by newer ones before a tick read them (the input came faster than the ticks; each tick used the newest values)"
+        );
     }
     let interrupted = crate::output::interrupted();
     for (name, c) in ticker.limit_counts() {

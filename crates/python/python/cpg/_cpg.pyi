@@ -136,26 +136,41 @@ class Model:
     def to_bytes(self) -> bytes: ...
     def save(self, path: _Path) -> None: ...
     @staticmethod
-    def from_bytes(data: bytes, name: str = "<bytes>") -> "Model": ...
+    def from_bytes(data: Union[bytes, bytearray, memoryview], name: str = "<bytes>") -> "Model": ...
 
 def load(path: _Path) -> Model:
     """Reads a model file."""
 
-def train(config: Union[_Path, dict[str, Any]], seed: Optional[int] = None) -> Model:
-    """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields; ``seed`` replaces the reservoir seed."""
+def train(config: Union[_Path, dict[str, Any]], seed: Optional[int] = None, allow_unstable: bool = False) -> Model:
+    """Trains as ``cpg train`` does, from a configuration file or a dict of the same fields; ``seed`` replaces the
+    reservoir seed. An unstable model (best validation score worse than 1) is refused unless ``allow_unstable``."""
 
 def fit(
-    y: Optional[_ArrayLike] = None,
-    rate_hz: Optional[float] = None,
-    controls: Optional[Sequence[Sequence[float]]] = None,
+    y: _ArrayLike,
+    rate_hz: float,
+    controls: Optional[_ArrayLike] = None,
     channels: Optional[Sequence[str]] = None,
     control_names: Optional[Sequence[str]] = None,
     seed: Optional[int] = None,
     config: Optional[dict[str, Any]] = None,
-    segments: Optional[Sequence[_ArrayLike]] = None,
+    allow_unstable: bool = False,
 ) -> Model:
-    """Trains on one segment ``y`` (time × channels; 1-D is one channel) or on ``segments``, each with its control
-    values; z-scoring inside. ``config`` overrides the data, reservoir and training sections (docs/config.md)."""
+    """Trains on one recording ``y`` (time × channels; 1-D is one channel; a DataFrame's columns name the channels)
+    at ``rate_hz`` frames per second, under ``controls`` (one value per control input); z-scoring inside.
+    ``config`` overrides the data, reservoir and training sections (docs/config.md)."""
+
+def fit_segments(
+    segments: Sequence[_ArrayLike],
+    rate_hz: float,
+    controls: Optional[Sequence[_ArrayLike]] = None,
+    channels: Optional[Sequence[str]] = None,
+    control_names: Optional[Sequence[str]] = None,
+    seed: Optional[int] = None,
+    config: Optional[dict[str, Any]] = None,
+    allow_unstable: bool = False,
+) -> Model:
+    """Trains on several recordings (each time × channels, the same channels), each under its own control values
+    (``controls``: one list per segment); otherwise as ``fit``."""
 
 def hoap2_urdf() -> str:
     """The HOAP-2 URDF the package carries."""

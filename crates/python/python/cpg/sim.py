@@ -44,6 +44,10 @@ from typing import Optional
 import numpy as np
 
 PUSH_S = 0.1
+#: The longest run simulated, s.
+MAX_SECONDS = 86_400.0
+#: The largest push, m/s (ten times what the robot walks at).
+MAX_PUSH_MPS = 5.0
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
 
 
@@ -63,23 +67,52 @@ class Gains:
 
     @classmethod
     def from_json(cls, text: str) -> "Gains":
-        d = json.loads(text)
-        unknown = set(d) - {f.name for f in dataclasses.fields(cls)}
+        """Gains from a JSON object: known names only, finite numbers, ``phase_reset`` true or false."""
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"gains: not JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+        if not isinstance(d, dict):
+            raise ValueError(f"gains: expected a JSON object of names and numbers, found {type(d).__name__}")
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = set(d) - set(fields)
         if unknown:
-            raise ValueError(f"unknown gains {sorted(unknown)}; known: {[f.name for f in dataclasses.fields(cls)]}")
+            raise ValueError(f"unknown gains {sorted(unknown)}; known: {list(fields)}")
+        for k, v in d.items():
+            if k == "phase_reset":
+                if not isinstance(v, bool):
+                    raise ValueError(f"gains: phase_reset = {v!r}: expected true or false")
+            elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"gains: {k} = {v!r}: expected a finite number")
+        if "max_wait_s" in d and not 0 <= d["max_wait_s"] <= 10:
+            raise ValueError(f"gains: max_wait_s = {d['max_wait_s']}: expected 0 to 10 s")
         return cls(**d)
 
 
 def read_trajectory(path: str):
-    """(times_s, joint names, angles frames x joints) of a ``cpg retarget`` CSV, and its support column if any."""
-    with open(path, encoding="utf-8") as f:
-        header = f.readline().strip().split(",")
+    """(times_s, joint names, angles frames x joints) of a ``cpg retarget`` CSV, and its support column if any.
+    The file is read within a bound (``cpg._cli.MAX_TEXT_BYTES``)."""
+    import io
+
+    from ._cli import read_text
+
+    text = read_text(path)
+    header = text.split("\n", 1)[0].strip().split(",")
     if not header or header[0] != "time_s":
         raise ValueError(f"{path}: line 1: expected a header starting with time_s, found {header[:1]}")
     cols = [k for k, h in enumerate(header) if h.endswith("_rad")]
     if not cols:
         raise ValueError(f"{path}: line 1: no JOINT_rad column")
-    data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[0, *cols], dtype=float, max_rows=2_000_000)
+    if not text.split("\n", 1)[1:] or not text.split("\n", 1)[1].strip():
+        raise ValueError(f"{path}: line 2: no rows after the header (expected at least 2)")
+    import warnings
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # numpy's warnings about the text are errors of the file
+            data = np.genfromtxt(io.StringIO(text), delimiter=",", skip_header=1, usecols=[0, *cols], dtype=float)
+    except (ValueError, UserWarning) as e:
+        raise ValueError(f"{path}: {e}") from None
     data = np.atleast_2d(data)
     if data.shape[0] < 2 or not np.all(np.isfinite(data)):
         bad = int(np.argwhere(~np.isfinite(data))[0][0]) + 2 if not np.all(np.isfinite(data)) else 2
@@ -90,8 +123,12 @@ def read_trajectory(path: str):
     support = None
     if "support" in header:
         k = header.index("support")
-        support = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[k], dtype=str, max_rows=2_000_000)
+        support = np.genfromtxt(io.StringIO(text), delimiter=",", skip_header=1, usecols=[k], dtype=str)
     return t, [header[k][: -len("_rad")] for k in cols], data[:, 1:], support
+
+
+class Diverged(ValueError):
+    """The physics became unstable (MuJoCo found a non-finite or huge acceleration)."""
 
 
 def simulate(
@@ -133,6 +170,64 @@ def simulate(
     (``moved_after_stop_m``)."""
     import mujoco
 
+    # MuJoCo's warnings (an unstable simulation) are collected for the error
+    # that reports them, not printed or written to MUJOCO_LOG.TXT in the working directory.
+    seen: list = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(seen.append)
+    try:
+        return _simulate(
+            seen, times_s, joints, angles_rad, support, seconds=seconds, gains=gains, push_every_s=push_every_s,
+            push_mps=push_mps, push_direction=push_direction, tempo=tempo, tempo_at_s=tempo_at_s,
+            record_every=record_every, cpg_model=cpg_model, handover_s=handover_s, cpg_controls=cpg_controls,
+            tempo_ramp_s=tempo_ramp_s, stop_at_s=stop_at_s, stop_ramp_s=stop_ramp_s,
+        )
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _simulate(
+    warnings_seen: list,
+    times_s,
+    joints,
+    angles_rad,
+    support=None,
+    *,
+    seconds: Optional[float] = None,
+    gains: Gains = Gains(),
+    push_every_s: float = 0.0,
+    push_mps: float = 0.0,
+    push_direction: str = "all",
+    tempo: float = 1.0,
+    tempo_at_s: float = 0.0,
+    record_every: int = 0,
+    cpg_model=None,
+    handover_s: Optional[float] = None,
+    cpg_controls: Optional[dict] = None,
+    tempo_ramp_s: float = 3.0,
+    stop_at_s: Optional[float] = None,
+    stop_ramp_s: float = 2.0,
+):
+    """The body of :func:`simulate`; MuJoCo's warnings go to ``warnings_seen``."""
+    import mujoco
+
+    from ._cli import check_finite
+
+    check_finite(
+        seconds=seconds,
+        push_every_s=push_every_s,
+        push_mps=push_mps,
+        tempo=tempo,
+        tempo_at_s=tempo_at_s,
+        handover_s=handover_s,
+        tempo_ramp_s=tempo_ramp_s,
+        stop_at_s=stop_at_s,
+        stop_ramp_s=stop_ramp_s,
+    )
+    if seconds is not None and not (0 < seconds <= MAX_SECONDS):
+        raise ValueError(f"seconds = {seconds}: expected more than 0 and at most {MAX_SECONDS:g}")
+    if push_every_s < 0 or not (0 <= push_mps <= MAX_PUSH_MPS):
+        raise ValueError(f"push every {push_every_s} s of {push_mps} m/s: expected every ≥ 0 s, 0 to {MAX_PUSH_MPS:g} m/s")
     if push_direction != "all" and push_direction not in DIRECTIONS:
         raise ValueError(f"push direction {push_direction!r}: expected one of {[*DIRECTIONS, 'all']}")
     if not (0.25 <= tempo <= 4.0):
@@ -240,6 +335,10 @@ def simulate(
     settled_at = None if stop_at_s is None else stop_at_s + stop_ramp_s + 3.0
     settled_xy = None  # where the trunk was once the stop had settled
     control, measure, mj_step = loop.control, loop.measure, mujoco.mj_step
+    # MuJoCo counts the steps whose accelerations were not finite (and resets the state
+    # when it finds one): such a run is unstable, whatever the trunk's height says.
+    bad_acc = data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
+    step = -1
     for step in range(n):
         t = step * dt
         recording = record_every and step % record_every == 0
@@ -261,6 +360,12 @@ def simulate(
         push_left -= dt
         mj_step(model, data)
         measure()
+        if bad_acc.number:
+            said = f" (MuJoCo: {warnings_seen[0].split('. Time')[0]})" if warnings_seen else ""
+            raise Diverged(
+                f"the simulation became unstable at {t + dt:.3f} s: a non-finite or huge acceleration{said}; "
+                "its measures would mean nothing"
+            )
         if trunk_z[0] < fall_z or trunk_up[0] < fall_up:
             fell_at = t + dt
             break
@@ -273,7 +378,9 @@ def simulate(
             path.append([t, *map(float, data.xpos[trunk])])
             contacts.append([t, float(touch[0]), float(touch[1])])
             poses.append([t, *map(float, data.xpos[trunk]), *map(float, data.xquat[trunk]), *map(float, data.qpos[all_q])])
-    steps_run = step + 1 if n else 0
+    steps_run = step + 1
+    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+        raise Diverged(f"the simulation's state stopped being finite by {steps_run * dt:.3f} s")
     end = data.xpos[trunk] - start
     m = data.xmat[trunk].reshape(3, 3)
     heading = math.degrees(math.atan2(m[1, 0], m[0, 0]))
@@ -366,35 +473,31 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
     return gen, drive, rate, first, handover_s
 
 
-def _umask() -> int:
-    """The process's file-creation mask (read by setting it back)."""
-    import os
-
-    m = os.umask(0)
-    os.umask(m)
-    return m
-
-
 def main(argv=None) -> int:
+    from ._cli import check_output, number, read_text, run, write_output, MAX_JSON_BYTES
+
     p = argparse.ArgumentParser(prog="cpg-sim", description=__doc__.split("\n\n")[0])
     p.add_argument("--trajectory", required=True, help="a walk as `cpg retarget` writes it (CSV); with --model, the start")
     p.add_argument("--model", help="a trained model (channels JOINT.rx, degrees) that drives after the hand-over")
-    p.add_argument("--handover-s", type=float, help="when the model takes over (default: the 10th left touch-down)")
-    p.add_argument("--seconds", type=float, help="how long to simulate (default: the walk's length)")
-    p.add_argument("--push-every-s", type=float, default=0.0, help="push the trunk every T s (0: never)")
-    p.add_argument("--push-mps", type=float, default=0.2, help="each push's change of the trunk's velocity, m/s")
+    p.add_argument("--handover-s", type=number(0.0), help="when the model takes over (default: the 10th left touch-down)")
+    p.add_argument("--seconds", type=number(0.0, MAX_SECONDS, lo_open=True), help="how long to simulate (default: the walk's length)")
+    p.add_argument("--push-every-s", type=number(0.0), default=0.0, help="push the trunk every T s (0: never)")
+    p.add_argument("--push-mps", type=number(0.0, MAX_PUSH_MPS), default=0.2, help="each push's change of the trunk's velocity, m/s")
     p.add_argument("--push-direction", default="all", choices=[*DIRECTIONS, "all"], help="all: in turn")
-    p.add_argument("--tempo", type=float, default=1.0, help="the gait's speed factor from --tempo-at-s on")
-    p.add_argument("--tempo-at-s", type=float, default=0.0, help="when the tempo changes, s")
-    p.add_argument("--stop-at-s", type=float, help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
+    p.add_argument("--tempo", type=number(0.25, 4.0), default=1.0, help="the gait's speed factor from --tempo-at-s on (0.25–4)")
+    p.add_argument("--tempo-at-s", type=number(0.0), default=0.0, help="when the tempo changes, s")
+    p.add_argument("--stop-at-s", type=number(0.0), help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
     p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE")
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
-    p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here")
+    p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here (- for standard output)")
     a = p.parse_args(argv)
-    try:
+
+    def body() -> int:
+        # Everything that can be checked is checked before the simulation.
+        check_output(a.output)
         gains = Gains()
         if a.gains:
-            text = open(a.gains[1:], encoding="utf-8").read() if a.gains.startswith("@") else a.gains
+            text = read_text(a.gains[1:], MAX_JSON_BYTES) if a.gains.startswith("@") else a.gains
             gains = Gains.from_json(text)
         t, joints, q, support = read_trajectory(a.trajectory)
         model = None
@@ -419,33 +522,22 @@ def main(argv=None) -> int:
             handover_s=a.handover_s,
             stop_at_s=a.stop_at_s,
         )
-    except Exception as e:  # cpg.CpgError, OSError, ValueError: one message, exit 2
-        if isinstance(e, KeyboardInterrupt):
-            raise
-        print(f"cpg-sim: {e}", file=sys.stderr)
-        return 2
-    if a.output:
-        import os
-        import tempfile
+        if a.output:
+            write_output(a.output, json.dumps(r))
+        summary = {k: v for k, v in r.items() if k not in ("trunk_path", "contacts_n", "pose_joints", "poses")}
+        if a.json:
+            print(json.dumps(summary, indent=2))
+        else:
+            state = f"fell after {r['upright_s']:.2f} s" if r["fell"] else f"upright for {r['upright_s']:.1f} s"
+            print(
+                f"{state}; {r['forward_m']:+.2f} m forward, {r['lateral_m']:+.2f} m sideways, heading {r['heading_deg']:+.1f}°; "
+                f"largest torque {r['max_torque_nm']:.2f} N·m; pushes survived {r['pushes_survived']} of {r['pushes_total']}"
+            )
+            if r.get("moved_after_stop_m") is not None:
+                print(f"stopped at {r['stop_at_s']:.1f} s; the trunk moved {r['moved_after_stop_m'] * 1000:.0f} mm from 3 s after the stop to the end")
+        return 0
 
-        d = os.path.dirname(os.path.abspath(a.output))
-        fd, tmp = tempfile.mkstemp(dir=d, prefix=".cpg-sim-")
-        with os.fdopen(fd, "w") as f:
-            json.dump(r, f)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, a.output)
-    summary = {k: v for k, v in r.items() if k not in ("trunk_path", "contacts_n", "pose_joints", "poses")}
-    if a.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        state = f"fell after {r['upright_s']:.2f} s" if r["fell"] else f"upright for {r['upright_s']:.1f} s"
-        print(
-            f"{state}; {r['forward_m']:+.2f} m forward, {r['lateral_m']:+.2f} m sideways, heading {r['heading_deg']:+.1f}°; "
-            f"largest torque {r['max_torque_nm']:.2f} N·m; pushes survived {r['pushes_survived']} of {r['pushes_total']}"
-        )
-        if r.get("moved_after_stop_m") is not None:
-            print(f"stopped at {r['stop_at_s']:.1f} s; the trunk moved {r['moved_after_stop_m'] * 1000:.0f} mm from 3 s after the stop to the end")
-    return 0
+    return run("cpg-sim", body)
 
 
 if __name__ == "__main__":

@@ -58,11 +58,15 @@ def planned_speed(path: str) -> float:
     """The walk's planned speed: its trunk's advance (``trunk_x_m``) over its duration, m/s."""
     import numpy as np
 
-    with open(path, encoding="utf-8") as f:
-        header = f.readline().strip().split(",")
+    import io
+
+    from cpg._cli import read_text
+
+    text = read_text(path)
+    header = text.split("\n", 1)[0].strip().split(",")
     if "trunk_x_m" not in header:
         raise ValueError(f"{path}: line 1: no trunk_x_m column (give cpg retarget's CSV)")
-    d = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=[0, header.index("trunk_x_m")], max_rows=2_000_000)
+    d = np.atleast_2d(np.genfromtxt(io.StringIO(text), delimiter=",", skip_header=1, usecols=[0, header.index("trunk_x_m")]))
     return max(1e-3, float(d[-1, 1] - d[0, 1]) / float(d[-1, 0] - d[0, 0]))
 
 
@@ -93,67 +97,65 @@ def _worker(args):
 
 
 def main(argv=None) -> int:
+    from cpg._cli import MAX_JSON_BYTES, check_output, number, read_text, run, whole, write_output
+
     p = argparse.ArgumentParser(prog="python -m cpg.sim_search", description=__doc__.split("\n\n")[0])
     p.add_argument("--trajectory", required=True, help="the walk (cpg retarget's CSV)")
     p.add_argument("--storage", required=True, help="Optuna storage URL, e.g. sqlite:///gains.db")
     p.add_argument("--study", default="hoap2-feedback", help="the study's name in the storage")
-    p.add_argument("--trials", type=int, default=100, help="trials per worker")
-    p.add_argument("--workers", type=int, default=2, help="worker processes on this machine")
-    p.add_argument("--seconds", type=float, default=20.0, help="seconds per simulated run")
-    p.add_argument("--seed", type=int, default=1, help="worker k samples with seed + k")
+    p.add_argument("--trials", type=whole(1, 100_000), default=100, help="trials per worker")
+    p.add_argument("--workers", type=whole(1, 256), default=2, help="worker processes on this machine")
+    p.add_argument("--seconds", type=number(1.0, 3600.0), default=20.0, help="seconds per simulated run")
+    p.add_argument("--seed", type=whole(0, 2**32 - 1), default=1, help="worker k samples with seed + k")
     p.add_argument(
         "--model",
         action="append",
         default=[],
         help="a trained CPG of the walk (channels JOINT.rx) that drives after the hand-over (repeat: one per seed)",
     )
-    p.add_argument("--tempo", type=float, default=1.1, help="with --model: the tempo change of the third run")
+    p.add_argument("--tempo", type=number(0.25, 4.0), default=1.1, help="with --model: the tempo change of the third run")
     p.add_argument(
         "--start-from",
         action="append",
         default=[],
         help="gains (JSON of cpg.sim.Gains) the study tries first (repeat for several)",
     )
-    p.add_argument("-o", "--output", help="write the best gains (JSON) here")
+    p.add_argument("-o", "--output", help="write the best gains (JSON) here (- for standard output)")
     a = p.parse_args(argv)
-    try:
-        import optuna
-    except ImportError:
-        print("cpg.sim_search needs optuna: pip install optuna", file=sys.stderr)
-        return 2
-    if not (1 <= a.workers <= 256 and 1 <= a.trials <= 100_000 and 1.0 <= a.seconds <= 3600.0):
-        print("workers 1–256, trials 1–100000, seconds 1–3600", file=sys.stderr)
-        return 2
-    try:
+
+    def body() -> int:
+        try:
+            import optuna
+        except ImportError:
+            raise ValueError("cpg.sim_search needs optuna: pip install optuna") from None
+        # Every input is read and checked here, before a worker starts.
+        check_output(a.output)
         read_trajectory(a.trajectory)
         planned_speed(a.trajectory)
-    except (OSError, ValueError) as e:
-        print(f"cpg.sim_search: {e}", file=sys.stderr)
-        return 2
-    study = optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
-    for path in a.start_from:
-        try:
-            g = Gains.from_json(open(path, encoding="utf-8").read())
-        except (OSError, ValueError) as e:
-            print(f"cpg.sim_search: {path}: {e}", file=sys.stderr)
-            return 2
-        study.enqueue_trial({k: getattr(g, k) for k in [*SPACE, "phase_reset"]})
-    jobs = [
-        (a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k, a.model, a.tempo) for k in range(a.workers)
-    ]
-    ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(a.workers) as pool:
-        pool.map(_worker, jobs)
-    study = optuna.load_study(study_name=a.study, storage=a.storage)
-    best = study.best_trial
-    gains = {k: v for k, v in best.params.items()}
-    out = {"gains": gains, "score": best.value, "trials": len(study.trials), "runs": best.user_attrs.get("runs")}
-    text = json.dumps(gains, indent=2)
-    if a.output:
-        with open(a.output, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
-    print(json.dumps(out, indent=2))
-    return 0
+        import cpg
+
+        for path in a.model:
+            cpg.load(path)
+        starts = [Gains.from_json(read_text(path, MAX_JSON_BYTES)) for path in a.start_from]
+        study = optuna.create_study(study_name=a.study, storage=a.storage, direction="maximize", load_if_exists=True)
+        for g in starts:
+            study.enqueue_trial({k: getattr(g, k) for k in [*SPACE, "phase_reset"]})
+        jobs = [
+            (a.trajectory, a.storage, a.study, a.trials, a.seconds, a.seed + k, a.model, a.tempo) for k in range(a.workers)
+        ]
+        ctx = multiprocessing.get_context("spawn")
+        with ctx.Pool(a.workers) as pool:
+            pool.map(_worker, jobs)
+        study = optuna.load_study(study_name=a.study, storage=a.storage)
+        best = study.best_trial
+        gains = {k: v for k, v in best.params.items()}
+        out = {"gains": gains, "score": best.value, "trials": len(study.trials), "runs": best.user_attrs.get("runs")}
+        if a.output:
+            write_output(a.output, json.dumps(gains, indent=2) + "\n")
+        print(json.dumps(out, indent=2), file=sys.stderr if a.output == "-" else sys.stdout)
+        return 0
+
+    return run("cpg.sim_search", body)
 
 
 if __name__ == "__main__":

@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from cpg.sim import Gains, _umask, fit_walk, read_trajectory, simulate
+from cpg._cli import MAX_JSON_BYTES, check_output, read_text, run, write_output, number, whole
+from cpg.sim import Gains, fit_walk, read_trajectory, simulate
 
 #: Every 20th physics step (50 Hz) of the recorded runs.
 RECORD_EVERY = 20
@@ -82,30 +81,30 @@ def main(argv=None) -> int:
     p.add_argument("--config", help="a cpg train configuration of the walk's CPG (e.g. experiments/hoap2-walk.toml)")
     p.add_argument("--copy", help="the paper's joint-angle copy as joint commands (cpg hoap2's CSV)")
     p.add_argument("--gains", required=True, help="JSON file of cpg.sim.Gains (cpg.sim_search -o)")
-    p.add_argument("--seeds", type=int, default=10)
-    p.add_argument("--first-seed", type=int, default=1)
-    p.add_argument("--seconds", type=float, default=60.0)
-    p.add_argument("--push-every-s", type=float, default=5.0)
-    p.add_argument("--push-mps", type=float, default=0.2)
-    p.add_argument("--tempo", type=float, default=1.1, help="the tempo change half-way through the third run")
-    p.add_argument("--tempo-ramp-s", type=float, default=3.0, help="seconds of the tempo change's cosine ramp")
-    p.add_argument("--stop-ramp-s", type=float, default=3.0, help="seconds of the stop's cosine ramp (u_walk to 0)")
-    p.add_argument("--neurons", type=int, default=600, help="without --config: the fitted CPG's size")
-    p.add_argument("--judge-s", type=float, default=900.0, help="each CPG's free run at each tempo it was taught, judged")
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--seeds", type=whole(1, 1000), default=10)
+    p.add_argument("--first-seed", type=whole(0, 2**63), default=1)
+    p.add_argument("--seconds", type=number(1.0, 3600.0), default=60.0)
+    p.add_argument("--push-every-s", type=number(0.0), default=5.0)
+    p.add_argument("--push-mps", type=number(0.0, 5.0), default=0.2)
+    p.add_argument("--tempo", type=number(0.25, 4.0), default=1.1, help="the tempo change half-way through the third run")
+    p.add_argument("--tempo-ramp-s", type=number(0.0, 60.0), default=3.0, help="seconds of the tempo change's cosine ramp")
+    p.add_argument("--stop-ramp-s", type=number(0.0, 60.0), default=3.0, help="seconds of the stop's cosine ramp (u_walk to 0)")
+    p.add_argument("--neurons", type=whole(10, 10_000), default=600, help="without --config: the fitted CPG's size")
+    p.add_argument("--judge-s", type=number(1.0, 86_400.0), default=900.0, help="each CPG's free run at each tempo it was taught, judged")
+    p.add_argument("--workers", type=whole(1, 256), default=2)
+    p.add_argument("-o", "--output", required=True, help="the runs' measures as JSON (- for standard output)")
     a = p.parse_args(argv)
-    if not (1 <= a.seeds <= 1000 and 1.0 <= a.seconds <= 3600.0 and 1 <= a.workers <= 256):
-        print("seeds 1–1000, seconds 1–3600, workers 1–256", file=sys.stderr)
-        return 2
-    try:
-        gains_json = open(a.gains, encoding="utf-8").read()
-        gains = Gains.from_json(gains_json)
-        walk = read_trajectory(a.trajectory)
-        copy = read_trajectory(a.copy) if a.copy else None
-    except (OSError, ValueError) as e:
-        print(f"cpg.walk_eval: {e}", file=sys.stderr)
-        return 2
+    return run("cpg.walk_eval", lambda: _evaluate(a))
+
+
+def _evaluate(a) -> int:
+    check_output(a.output)
+    gains_json = read_text(a.gains, MAX_JSON_BYTES)
+    gains = Gains.from_json(gains_json)
+    walk = read_trajectory(a.trajectory)
+    copy = read_trajectory(a.copy) if a.copy else None
+    if a.config:
+        read_text(a.config, MAX_JSON_BYTES)  # readable before the workers start (each trains from it)
     opts = {
         "seconds": a.seconds,
         "push_every_s": a.push_every_s,
@@ -136,12 +135,7 @@ def main(argv=None) -> int:
             {"seed": s, "fit_s": f, "model": m, "judged": j, **rows} for s, f, m, j, rows in pool.map(_one, jobs)
         ]
     out["wall_s"] = time.perf_counter() - t0
-    d = os.path.dirname(os.path.abspath(a.output))
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".walk-eval-")
-    with os.fdopen(fd, "w") as f:
-        json.dump(out, f, indent=1)
-    os.chmod(tmp, 0o666 & ~_umask())
-    os.replace(tmp, a.output)
+    write_output(a.output, json.dumps(out, indent=1))
     for row in ("cpg", "cpg+feedback"):
         for c in ("flat", "pushes", "tempo", "stop"):
             rs = [s[row][c] for s in out["seeds"] if c in s[row]]
@@ -152,7 +146,8 @@ def main(argv=None) -> int:
             pushes = sum(r["pushes_survived"] for r in rs), sum(r["pushes_total"] for r in rs)
             print(
                 f"{row:<13} {c:<7} upright {up}/{len(rs)}; forward {fwd[0]:.2f}–{fwd[-1]:.2f} m; "
-                f"heading up to {max(abs(r['heading_deg']) for r in rs):.1f}°; pushes {pushes[0]}/{pushes[1]}"
+                f"heading up to {max(abs(r['heading_deg']) for r in rs):.1f}°; pushes {pushes[0]}/{pushes[1]}",
+                file=sys.stderr if a.output == "-" else sys.stdout,
             )
     return 0
 
