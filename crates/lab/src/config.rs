@@ -467,6 +467,34 @@ pub struct ExperimentSection {
     pub quick_seeds: u64,
     /// The test the experiment runs: one table named by its kind.
     pub test: ExperimentTest,
+    /// Quantities chosen outside validation (by hand or by a search) and
+    /// what they were chosen on: each is compared with the test's conditions
+    /// as validation's are.
+    #[serde(default)]
+    pub tuned: Vec<TunedSection>,
+}
+
+/// `[[experiment.tuned]]`: a quantity chosen outside validation, and where.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TunedSection {
+    /// What was chosen, as the configuration names it (`reservoir.inputs`, `experiment.test.walking.gains`).
+    pub key: String,
+    /// How it was chosen, in words (`searched on Optuna, docs/hoap2-walk.md`).
+    pub how: String,
+    /// The reservoir seeds whose runs the choice was made on (empty: none named).
+    #[serde(default)]
+    pub seeds: Vec<u64>,
+    /// Physics runs the choice was made on (a walking search): their length, seconds.
+    pub run_s: Option<f64>,
+    /// Their pushes: every how many seconds (with `push_mps`).
+    pub push_every_s: Option<f64>,
+    /// Their pushes' change of the trunk's velocity, m/s.
+    pub push_mps: Option<f64>,
+    /// Their tempo change half-way (a factor), with a ramp of `tempo_ramp_s`.
+    pub tempo: Option<f64>,
+    /// The tempo change's ramp, seconds.
+    pub tempo_ramp_s: Option<f64>,
 }
 
 /// `[experiment.test.KIND]`: the test an experiment runs, one kind per

@@ -247,6 +247,16 @@ pub fn posture_stability(y: &[f64], d: usize, teacher: &Teacher, rate_hz: f64, s
 pub struct Recovery {
     /// Seconds from the release until the run is back on the teacher's orbit.
     pub orbit_s: Option<f64>,
+    /// Seconds from the release until it is back on the orbit its unpushed
+    /// twin ends on (that run's last period): recovery from the push as such,
+    /// whatever the model's own orbit is (`None`: never).
+    #[serde(default)]
+    pub own_orbit_s: Option<f64>,
+    /// Whether the unpushed twin itself ends on the teacher's orbit (within
+    /// the same threshold): when it does not, `orbit_s` cannot be reached by
+    /// any recovery, and measures the model's accuracy instead.
+    #[serde(default)]
+    pub unpushed_on_orbit: bool,
     /// Seconds from the release until it is back on its twin (same phase).
     pub twin_s: Option<f64>,
     /// Lag behind the twin long after the release, cycles (positive: behind).
@@ -318,8 +328,21 @@ pub fn recovery(a: &[f64], b: &[f64], d: usize, cycle: &[f64], release: usize, r
     } else {
         lag(&column(&a[tail * d..], d, 0), &column(&b[tail * d..], d, 0), p / 2 + 1) / p as f64
     };
+    // The unpushed twin's own orbit: its last period (its own, which may differ from the teacher's).
+    let own_p = if posture {
+        1
+    } else {
+        let win = (4 * p).min(t);
+        estimate_period(&column(&a[(t - win) * d..], d, 0), (p / 2).max(2), (2 * p).min(win / 2))
+            .map_or(p, |q| (q.round() as usize).clamp(2, t))
+    };
+    let own = &a[(t - own_p) * d..];
+    let a_ending = orbit_distance(a, cycle, d, w);
+    let a_orbit: Vec<f64> = (0..t).map(|k| a_ending.get(k + w - 1).copied().unwrap_or(f64::INFINITY)).collect();
     Ok(Recovery {
         orbit_s: settle(&orbit, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
+        own_orbit_s: settle_on_orbit(b, d, own, release, rate_hz),
+        unpushed_on_orbit: settle(&a_orbit, release, RECOVERY_THRESHOLD_SD, p, rate_hz).is_some(),
         twin_s: settle(&twin, release, RECOVERY_THRESHOLD_SD, p, rate_hz),
         phase_shift_cycles: shift,
     })

@@ -129,14 +129,14 @@ fn rel(p: &Path) -> String {
 }
 
 /// Runs one configuration, timing it.
-fn run_config(path: &Path, opts: Options, times: &mut Vec<(String, f64)>) -> anyhow::Result<Outcome> {
-    let t = Instant::now();
+fn run_config(path: &Path, opts: Options, times: &mut Times) -> anyhow::Result<Outcome> {
+    let t = Clock::start();
     let c = Config::load(path)?;
     eprintln!("  {}: {}", rel(path), c.experiment.as_ref().map_or("", |e| e.title.as_str()));
     let o = experiment::run(&c, opts, &Bars).with_context(|| format!("running {}", rel(path)))?;
     let (p, n) = o.passed();
-    eprintln!("    {p} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
-    times.push((rel(path), t.elapsed().as_secs_f64()));
+    eprintln!("    {p} of {n} passed ({:.1} s)", t.elapsed_s());
+    times.push(rel(path), &t);
     Ok(o)
 }
 
@@ -145,9 +145,9 @@ fn run_pair(
     paths: &[PathBuf],
     configs: &[Config],
     opts: Options,
-    times: &mut Vec<(String, f64)>,
+    times: &mut Times,
 ) -> anyhow::Result<Vec<(String, Outcome)>> {
-    let t = Instant::now();
+    let t = Clock::start();
     let names: Vec<String> = paths.iter().map(|p| rel(p)).collect();
     for (n, c) in names.iter().zip(configs) {
         eprintln!("  {n}: {}", c.experiment.as_ref().map_or("", |e| e.title.as_str()));
@@ -160,17 +160,112 @@ fn run_pair(
         let (p, k) = o.passed();
         eprintln!("    {n}: {p} of {k} passed");
     }
-    eprintln!("    ({:.1} s)", t.elapsed().as_secs_f64());
-    times.push((names.join(" + "), t.elapsed().as_secs_f64()));
+    eprintln!("    ({:.1} s)", t.elapsed_s());
+    times.push(names.join(" + "), &t);
     Ok(names.into_iter().zip(outcomes).collect())
 }
+
+/// The machine's CPU counters at one moment (Linux `/proc`; zeros elsewhere):
+/// its busy and total time over every core, and this process's with the
+/// children it waited for, all in the kernel's clock ticks.
+#[derive(Debug, Clone, Copy, Default)]
+struct Snapshot {
+    busy: f64,
+    total: f64,
+    ours: f64,
+}
+
+impl Snapshot {
+    fn now() -> Snapshot {
+        let machine = std::fs::read_to_string("/proc/stat").ok().and_then(|t| {
+            let v: Vec<f64> = t.lines().next()?.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect();
+            // user nice system idle iowait irq softirq steal …
+            let total: f64 = v.iter().take(8).sum();
+            let idle = v.get(3).copied().unwrap_or(0.0) + v.get(4).copied().unwrap_or(0.0);
+            Some((total - idle, total))
+        });
+        let ours = std::fs::read_to_string("/proc/self/stat").ok().and_then(|t| {
+            // After the command's name in parentheses: fields 14–17 are utime, stime, cutime, cstime.
+            let rest = t.rsplit_once(')')?.1;
+            let v: Vec<f64> = rest.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+            Some(v.get(11..15)?.iter().sum())
+        });
+        let (busy, total) = machine.unwrap_or((0.0, 0.0));
+        Snapshot { busy, total, ours: ours.unwrap_or(0.0) }
+    }
+}
+
+/// A stretch of the run being timed: its wall time, and from the CPU
+/// counters how much this run got and how much of the machine others took.
+struct Clock {
+    wall: Instant,
+    at: Snapshot,
+}
+
+impl Clock {
+    fn start() -> Clock {
+        Clock { wall: Instant::now(), at: Snapshot::now() }
+    }
+
+    fn elapsed_s(&self) -> f64 {
+        self.wall.elapsed().as_secs_f64()
+    }
+
+    /// This run's CPU seconds since the start, and the share of the
+    /// machine's capacity other processes used meanwhile (0–1).
+    fn load(&self) -> (f64, f64) {
+        let now = Snapshot::now();
+        let total = now.total - self.at.total;
+        let ours = now.ours - self.at.ours;
+        let others = (now.busy - self.at.busy - ours).max(0.0);
+        let hz = if total > 0.0 {
+            // Ticks per second: the machine's ticks over its cores and the wall time.
+            total / (crate::cores() as f64 * self.elapsed_s()).max(1e-9)
+        } else {
+            100.0
+        };
+        (ours / hz, if total > 0.0 { (others / total).clamp(0.0, 1.0) } else { 0.0 })
+    }
+}
+
+/// What one section of the run got.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SectionLoad {
+    /// The section.
+    pub section: String,
+    /// Its wall time, seconds.
+    pub wall_s: f64,
+    /// The CPU seconds this run used meanwhile.
+    pub cpu_s: f64,
+    /// The share of the machine other processes took meanwhile (0–1).
+    pub others_share: f64,
+}
+
+/// The sections' timings, in the order they ran.
+#[derive(Debug, Clone, Default)]
+struct Times {
+    list: Vec<(String, f64)>,
+    loads: Vec<SectionLoad>,
+}
+
+impl Times {
+    fn push(&mut self, section: String, c: &Clock) {
+        let wall_s = c.elapsed_s();
+        let (cpu_s, others_share) = c.load();
+        self.list.push((section.clone(), wall_s));
+        self.loads.push(SectionLoad { section, wall_s, cpu_s, others_share });
+    }
+}
+
+/// Above this share of the machine taken by other processes, the report says its timings are not clean.
+pub const CLEAN_OTHERS_SHARE: f64 = 0.1;
 
 /// Everything a report is rendered from.
 struct Results {
     main: Vec<(String, Outcome)>,
     tried: Vec<(String, Outcome)>,
     families: Option<FamiliesResult>,
-    times: Vec<(String, f64)>,
+    times: Times,
     /// Sections that failed, with their errors: the report is written without them.
     failed: Vec<(String, String)>,
 }
@@ -212,7 +307,7 @@ fn settle<T: serde::Serialize>(
 fn run_all_configs(args: &Args, partial: &Path) -> anyhow::Result<Results> {
     let dir = crate::root().join("experiments");
     let opts = Options { quick: args.quick, threads: crate::cores() };
-    let mut times = Vec::new();
+    let mut times = Times::default();
     let mut main = Vec::new();
     let mut failed = Vec::new();
     let wants = |part: Part| args.experiment == Part::All || args.experiment == part;
@@ -250,7 +345,7 @@ fn run_all_configs(args: &Args, partial: &Path) -> anyhow::Result<Results> {
     }
     let families = if wants(Part::Families) {
         eprintln!("generator families (Vakulenko et al. 2017)");
-        let t = Instant::now();
+        let t = Clock::start();
         let p = dir.join("families.toml");
         let fc = FamiliesConfig::load(&p)?;
         let e6 = main.iter().find_map(|(n, o)| match o {
@@ -258,7 +353,7 @@ fn run_all_configs(args: &Args, partial: &Path) -> anyhow::Result<Results> {
             _ => None,
         });
         let r = experiment::families::run(&fc, e6, opts, &Bars).map_err(anyhow::Error::from);
-        times.push((rel(&p), t.elapsed().as_secs_f64()));
+        times.push(rel(&p), &t);
         settle(partial, &rel(&p), r, &mut failed)
     } else {
         None
@@ -266,18 +361,18 @@ fn run_all_configs(args: &Args, partial: &Path) -> anyhow::Result<Results> {
     if wants(Part::Walking) {
         for p in reservoir_experiments()?.into_iter().filter(|p| is_walking(p)) {
             eprintln!("walking in physics (the HOAP-2 in MuJoCo): {}", rel(&p));
-            let t = Instant::now();
+            let t = Clock::start();
             let work = crate::root().join("target").join("walking");
             let r = (|| {
                 let c = Config::load(&p)?;
                 std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
                 walking::run(&work, &c, args.quick, opts.threads).with_context(|| format!("running {}", rel(&p)))
             })();
-            times.push((rel(&p), t.elapsed().as_secs_f64()));
+            times.push(rel(&p), &t);
             if let Some(r) = settle(partial, &rel(&p), r, &mut failed) {
                 let o = Outcome::Walking(Box::new(r));
                 let (k, n) = o.passed();
-                eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed().as_secs_f64());
+                eprintln!("    {k} of {n} passed ({:.1} s)", t.elapsed_s());
                 main.push((rel(&p), o));
             }
         }
@@ -371,6 +466,15 @@ pub struct RunInfo {
     pub threads: usize,
     /// Seconds per configuration (or pair run together) and for the rendering.
     pub seconds: Vec<(String, f64)>,
+    /// Per section: the CPU time this run got and the share of the machine other processes took.
+    pub load: Vec<SectionLoad>,
+    /// The share of the machine's cores that other processes took over the whole run
+    /// (0: the timings are this run's alone).
+    pub others_share: f64,
+    /// The CPU seconds this run (and the processes it waited for) used in all.
+    pub cpu_s: f64,
+    /// The 1-minute load average when the run finished.
+    pub load_avg_1min: Option<f64>,
     /// Seconds in all.
     pub total_s: f64,
     /// Quotes checked against the papers' texts (`None`: the texts were not found).
@@ -427,7 +531,9 @@ fn simd_level() -> String {
     "scalar".into()
 }
 
-fn run_info(times: &[(String, f64)], total_s: f64, quotes_checked: Option<usize>) -> RunInfo {
+fn run_info(times: &Times, whole: &Clock, quotes_checked: Option<usize>) -> RunInfo {
+    let total_s = whole.elapsed_s();
+    let (cpu_s, others_share) = whole.load();
     let commit = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
     let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
     RunInfo {
@@ -437,7 +543,13 @@ fn run_info(times: &[(String, f64)], total_s: f64, quotes_checked: Option<usize>
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         simd: simd_level(),
         threads: crate::cores(),
-        seconds: times.to_vec(),
+        seconds: times.list.clone(),
+        load: times.loads.clone(),
+        others_share,
+        cpu_s,
+        load_avg_1min: std::fs::read_to_string("/proc/loadavg")
+            .ok()
+            .and_then(|t| t.split_whitespace().next().and_then(|v| v.parse().ok())),
         total_s,
         quotes_checked,
     }
@@ -539,13 +651,56 @@ fn render(args: &Args, r: &Results, dir: &Path, info: &RunInfo) -> anyhow::Resul
         info.commit, info.date_utc, info.cpu, info.cores, info.simd, info.threads
     ));
     md.blank();
-    let rows: Vec<Vec<String>> =
-        info.seconds.iter().map(|(n, s)| vec![format!("`{n}`"), format!("{s:.1} s")]).collect();
-    md.table(&["configuration", "wall time"], "lr", &rows);
-    md.line(format!("Total time of this evaluation: {:.0} s.", info.total_s));
+    let rows: Vec<Vec<String>> = info
+        .load
+        .iter()
+        .map(|l| {
+            vec![
+                format!("`{}`", l.section),
+                format!("{:.1} s", l.wall_s),
+                format!("{:.1} s", l.cpu_s),
+                format!("{:.0} %", 100.0 * l.others_share),
+            ]
+        })
+        .collect();
+    md.table(
+        &["configuration", "wall time", "CPU time of this run", "the machine's cores taken by other processes"],
+        "lrrr",
+        &rows,
+    );
+    md.line(format!(
+        "Total time of this evaluation: {:.0} s; this run used {:.0} CPU-seconds of the {} cores' {:.0}.",
+        info.total_s,
+        info.cpu_s,
+        info.cores,
+        info.total_s * info.cores as f64
+    ));
+    md.blank();
+    md.line(load_sentence(info));
     md.blank();
     md.line("The data used in this project was obtained from mocap.cs.cmu.edu. The database was created with funding from NSF EIA-0196217.");
     Ok(md.0)
+}
+
+/// Whether the timings are the run's alone, in words built from the load it measured.
+fn load_sentence(info: &RunInfo) -> String {
+    let busiest = info.load.iter().max_by(|a, b| a.others_share.total_cmp(&b.others_share));
+    let avg = info.load_avg_1min.map_or(String::new(), |l| format!(" (load average {l:.2} at the end)"));
+    if info.others_share > CLEAN_OTHERS_SHARE || busiest.is_some_and(|b| b.others_share > CLEAN_OTHERS_SHARE) {
+        let b = busiest
+            .map_or(String::new(), |b| format!("; the most during `{}`, {:.0} %", b.section, 100.0 * b.others_share));
+        format!(
+            "**These timings are not clean**: other processes took {:.0} % of the machine's cores over the run{b}{avg}, more than the {:.0} % under which a time is this run's alone; every section that shared the cores ran slower than it would alone.",
+            100.0 * info.others_share,
+            100.0 * CLEAN_OTHERS_SHARE
+        )
+    } else {
+        format!(
+            "The timings are this run's: other processes took {:.0} % of the machine's cores over the run (at most {:.0} % in any section){avg}.",
+            100.0 * info.others_share,
+            100.0 * busiest.map_or(0.0, |b| b.others_share)
+        )
+    }
 }
 
 /// What the experiments' sections need to know of this checkout: paths are shown from its root.
@@ -569,6 +724,7 @@ fn metrics(r: &Results, info: &RunInfo) -> anyhow::Result<String> {
 /// `cargo xtask evaluate`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let start = Instant::now();
+    let whole = Clock::start();
     crate::fetch::run(&crate::fetch::Args::quiet_all()).context("fetching the CMU data the experiments need")?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(if !args.configs.is_empty() {
@@ -595,12 +751,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .flat_map(|(_, o)| o.claims())
         .chain(results.families.iter().flat_map(|f| f.claims.iter()));
     let quotes = check_quotes(claims)?;
-    let rendering = Instant::now();
+    let rendering = Clock::start();
     // The figures and pages are written while rendering; its time is measured on a first pass.
-    let probe = run_info(&results.times, start.elapsed().as_secs_f64(), quotes);
+    let probe = run_info(&results.times, &whole, quotes);
     let _ = render(args, &results, &tmp, &probe)?;
-    results.times.push(("rendering the report and its figures".into(), rendering.elapsed().as_secs_f64()));
-    let info = run_info(&results.times, start.elapsed().as_secs_f64(), quotes);
+    results.times.push("rendering the report and its figures".into(), &rendering);
+    let info = run_info(&results.times, &whole, quotes);
     let md = render(args, &results, &tmp, &info)?;
     std::fs::write(tmp.join("REPORT.md"), md)?;
     std::fs::write(tmp.join("metrics.json"), metrics(&results, &info)?)?;

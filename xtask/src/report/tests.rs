@@ -72,6 +72,7 @@ fn header(id: &str, protocol: &str, score: &str) -> Header {
         },
         conditions: Conditions {
             validation: vec![Condition::Push { at_s: 1.3, hold_s: 0.1, above_max: 1.0 }],
+            tuned: Vec::new(),
             test: vec![Condition::Push { at_s: 2.0, hold_s: 0.05, above_max: 2.0 }],
         },
         warnings: Vec::new(),
@@ -98,7 +99,13 @@ fn stability_seed(seed: u64, period: Option<f64>, amp: f64, penalty: f64) -> Sta
             accurate,
             posture: None,
         },
-        recovery: Recovery { orbit_s: period.map(|_| 0.5), twin_s: None, phase_shift_cycles: 0.031 },
+        recovery: Recovery {
+            orbit_s: period.map(|_| 0.5),
+            own_orbit_s: Some(0.4),
+            unpushed_on_orbit: period.is_some(),
+            twin_s: None,
+            phase_shift_cycles: 0.031,
+        },
     }
 }
 
@@ -346,13 +353,51 @@ fn the_run_is_dated_by_the_calendar() {
     assert_eq!(super::civil(0), (1970, 1, 1));
     assert_eq!(super::civil(20_790), (2026, 12, 3));
     assert_eq!(super::civil(11_016), (2000, 2, 29));
-    let info = super::run_info(&[("x".into(), 1.5)], 2.0, Some(3));
+    let mut times = super::Times::default();
+    times.push("x".into(), &super::Clock::start());
+    let info = super::run_info(&times, &super::Clock::start(), Some(3));
     assert!(info.cores >= 1 && !info.cpu.is_empty() && !info.simd.is_empty());
     assert!(info.date_utc.len() == 20 && info.date_utc.ends_with('Z'), "{}", info.date_utc);
     let v = serde_json::to_value(&info).unwrap();
-    for k in ["commit", "date_utc", "cpu", "cores", "simd", "threads", "seconds", "total_s", "quotes_checked"] {
+    for k in [
+        "commit",
+        "date_utc",
+        "cpu",
+        "cores",
+        "simd",
+        "threads",
+        "seconds",
+        "total_s",
+        "quotes_checked",
+        "load",
+        "others_share",
+        "cpu_s",
+    ] {
         assert!(v.get(k).is_some(), "metrics.json's run lacks {k}");
     }
+}
+
+/// The run measures what else the machine did: busy cores of other
+/// processes are seen, and the report says its timings are not clean.
+#[test]
+fn timings_say_when_other_work_shared_the_cores() {
+    let clock = super::Clock::start();
+    // Another process keeps one core busy for a second.
+    let mut busy = std::process::Command::new("sh")
+        .args(["-c", "end=$(($(date +%s) + 2)); while [ $(date +%s) -lt $end ]; do :; done"])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let (_, others) = clock.load();
+    // Measured before the child is waited for (then its time would count as this run's).
+    let mut times = super::Times::default();
+    times.push("e6".into(), &clock);
+    let info = super::run_info(&times, &clock, None);
+    let _ = busy.kill();
+    let _ = busy.wait();
+    assert!(others > 0.2, "a busy core of {} is {others}", crate::cores());
+    let words = super::load_sentence(&info);
+    assert!(words.contains("These timings are not clean") && words.contains("`e6`"), "{words}");
 }
 
 /// A section that fails late in the run loses only itself: each finished
@@ -382,11 +427,59 @@ fn a_failed_section_is_left_out_and_the_finished_ones_are_kept() {
         main: vec![("experiments/e1.toml".into(), Outcome::Stability(Box::new(kept.unwrap())))],
         tried: Vec::new(),
         families: None,
-        times: Vec::new(),
+        times: super::Times::default(),
         failed,
     };
-    let info = super::run_info(&[], 1.0, None);
+    let info = super::run_info(&super::Times::default(), &super::Clock::start(), None);
     let md = super::render(&args, &r, dir.path(), &info).unwrap();
     assert!(md.contains("1 section(s) of this run failed"), "{md}");
     assert!(md.contains("`experiments/hoap2-walk.toml`: the simulator was not found"), "{md}");
+}
+
+/// A rule that cannot apply says so: switch spikes where no seed holds a
+/// rhythm (the paper's protocol once scored 0.03 of the teacher's amplitude)
+/// are "not applicable: no rhythm", not a verdict.
+#[test]
+fn a_rule_that_cannot_apply_says_not_applicable() {
+    let mut silent = gaits_with(0.17, false);
+    for s in &mut silent.seeds {
+        s.first.amplitude_ratio = 0.03;
+        s.second.amplitude_ratio = 0.03;
+    }
+    silent.summarise();
+    let v = doc_verdict(&silent.claims[1].verdict);
+    assert!(v.starts_with("not applicable: no rhythm: 0 of 1 seeds hold both gaits"), "{v}");
+    let live = gaits_with(0.17, false);
+    assert!(!doc_verdict(&live.claims[1].verdict).contains("not applicable"));
+}
+
+fn doc_verdict(v: &cpg_lab::experiment::Verdict) -> String {
+    cpg_lab::experiment::doc::verdict(v)
+}
+
+/// A verdict that passed at exactly its threshold over seeds says so (E4
+/// ours, 8 of 10 with 80 % needed); one with a seed to spare does not.
+#[test]
+fn a_verdict_at_exactly_its_threshold_says_so() {
+    use cpg_lab::experiment::{Judged, verdict_over};
+    let j = |k: usize| -> Vec<Judged> { (0..10).map(|i| Judged { passed: i < k, at_limit: false }).collect() };
+    let at = doc_verdict(&verdict_over(&j(8), 0.8, "r"));
+    assert_eq!(at, "reproduced (at exactly its threshold: 8 of 10 seeds, 8 needed)");
+    assert_eq!(doc_verdict(&verdict_over(&j(9), 0.8, "r")), "reproduced");
+    assert_eq!(doc_verdict(&verdict_over(&j(10), 1.0, "r")), "reproduced", "all of them: no margin to speak of");
+}
+
+/// A median of whole counts that falls between two (41.5 channels) is
+/// printed as it is, not rounded to a count no seed had.
+#[test]
+fn a_median_between_two_counts_keeps_its_half() {
+    use cpg_lab::experiment::claim::Measure;
+    let m = Measure::spread("channels within 15 %", &[41.0, 42.0, 38.0, 47.0], "of 62", 0);
+    assert_eq!(cpg_lab::experiment::doc::value(&m.value), "41.5 of 62 (38–47; n = 4)");
+    let m = Measure::spread("error", &[0.1234, 0.4321], "°", 2);
+    assert_eq!(
+        cpg_lab::experiment::doc::value(&m.value),
+        "0.28 ° (0.12–0.43; n = 2)",
+        "continuous values round as ever"
+    );
 }

@@ -208,6 +208,9 @@ pub enum Decision {
     NotReproduced,
     /// The test could not run (its data is missing).
     NotRun,
+    /// The rule cannot apply to what ran (a switch's spikes where there is
+    /// no rhythm to switch between): the verdict's note says why.
+    NotApplicable,
 }
 
 /// Whether a claim was reproduced, and the rule that says so.
@@ -220,6 +223,9 @@ pub struct Verdict {
     pub at_limit: bool,
     /// The rule, as printed beside the verdict.
     pub rule: String,
+    /// What the verdict's word alone does not say: that it passed at exactly
+    /// its threshold over seeds, or why the rule could not apply.
+    pub note: Option<String>,
 }
 
 impl Verdict {
@@ -229,12 +235,18 @@ impl Verdict {
             decision: if passed { Decision::Reproduced } else { Decision::NotReproduced },
             at_limit,
             rule: rule.into(),
+            note: None,
         }
     }
 
     /// A test that did not run.
     pub fn not_run(rule: impl Into<String>) -> Verdict {
-        Verdict { decision: Decision::NotRun, at_limit: false, rule: rule.into() }
+        Verdict { decision: Decision::NotRun, at_limit: false, rule: rule.into(), note: None }
+    }
+
+    /// A rule that cannot apply to what ran, and why (`no rhythm: …`).
+    pub fn not_applicable(why: impl Into<String>, rule: impl Into<String>) -> Verdict {
+        Verdict { decision: Decision::NotApplicable, at_limit: false, rule: rule.into(), note: Some(why.into()) }
     }
 
     /// The rule held.
@@ -254,10 +266,15 @@ pub fn over_seeds(
     passed_at_limit: usize,
     failed_at_limit: usize,
 ) -> (bool, bool) {
-    let needed = (fraction * n as f64 - 1e-9).ceil() as usize;
+    let needed = seeds_needed(n, fraction);
     let ok = n > 0 && passed >= needed;
     let fragile = if ok { passed - passed_at_limit.min(passed) < needed } else { passed + failed_at_limit >= needed };
     (ok, fragile && n > 0)
+}
+
+/// Seeds of `n` that must pass for a share of `fraction`.
+pub fn seeds_needed(n: usize, fraction: f64) -> usize {
+    (fraction * n as f64 - 1e-9).ceil() as usize
 }
 
 /// One claim of a paper as this run measured it.

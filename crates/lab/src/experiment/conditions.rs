@@ -9,8 +9,16 @@
 //! - plateaus (a continuous control held): the same value;
 //! - switches (a change of the controls): the same time or the same ramp;
 //! - noise: the same seed, both with noise;
-//! - windows (a clean stretch of a free run from the trained state, with no
-//!   push, switch or noise before it, scored against the teacher): they overlap.
+//! - windows (a stretch of a free run from the trained state, with no push
+//!   or switch before it, scored against the teacher; a validation window may
+//!   carry state noise, the paper's): they overlap;
+//! - physics runs: the same length; pushes of the robot: the same interval or
+//!   the same size;
+//! - seeds: a seed in common (a quantity chosen by hand on a seed the test runs).
+//!
+//! Besides validation, a configuration names the quantities chosen outside
+//! it (`[[experiment.tuned]]`: by hand on some seeds, or by a search on some
+//! runs); their conditions are compared with the test's the same way.
 
 use serde::Serialize;
 
@@ -51,12 +59,32 @@ pub enum Condition {
         /// Seed of the draws.
         seed: u64,
     },
-    /// A clean stretch of a free run from the trained state, scored.
+    /// A stretch of a free run from the trained state, scored.
     Window {
         /// Start, seconds.
         from_s: f64,
         /// End, seconds.
         to_s: f64,
+        /// With state noise (the paper's validation run).
+        #[serde(default)]
+        noisy: bool,
+    },
+    /// A run of the robot in physics on flat ground.
+    Run {
+        /// Its length, seconds.
+        seconds: f64,
+    },
+    /// Pushes of the robot's trunk.
+    Pushes {
+        /// Seconds between them.
+        every_s: f64,
+        /// Each one's change of the trunk's velocity, m/s.
+        mps: f64,
+    },
+    /// Reservoir seeds.
+    Seeds {
+        /// The seeds.
+        seeds: Vec<u64>,
     },
 }
 
@@ -75,7 +103,10 @@ impl Condition {
             (Plateau { u: a, .. }, Plateau { u: b, .. }) => same(*a, *b),
             (Switch { at_s: a, ramp_s: r }, Switch { at_s: b, ramp_s: s }) => same(*a, *b) || same(*r, *s),
             (Noise { variance: v, seed: a }, Noise { variance: w, seed: b }) => *v > 0.0 && *w > 0.0 && a == b,
-            (Window { from_s: a, to_s: b }, Window { from_s: c, to_s: d }) => a < d && c < b,
+            (Window { from_s: a, to_s: b, .. }, Window { from_s: c, to_s: d, .. }) => a < d && c < b,
+            (Run { seconds: a }, Run { seconds: b }) => same(*a, *b),
+            (Pushes { every_s: a, mps: m }, Pushes { every_s: b, mps: n }) => same(*a, *b) || same(*m, *n),
+            (Seeds { seeds: a }, Seeds { seeds: b }) => a.iter().any(|s| b.contains(s)),
             _ => false,
         }
     }
@@ -95,7 +126,19 @@ impl Condition {
                 }
             }
             Condition::Noise { variance, seed } => format!("state noise of variance {variance} (seed {seed})"),
-            Condition::Window { from_s, to_s } => format!("the clean free run scored from {from_s:.2} to {to_s:.2} s"),
+            Condition::Window { from_s, to_s, noisy: false } => {
+                format!("the clean free run scored from {from_s:.2} to {to_s:.2} s")
+            }
+            Condition::Window { from_s, to_s, noisy: true } => {
+                format!("the free run with state noise scored from {from_s:.2} to {to_s:.2} s")
+            }
+            Condition::Run { seconds } => format!("{seconds} s on flat ground"),
+            Condition::Pushes { every_s, mps } => format!("pushes of {mps} m/s every {every_s} s"),
+            Condition::Seeds { seeds } => match seeds.as_slice() {
+                [one] => format!("seed {one}"),
+                [a, .., b] if seeds.windows(2).all(|w| w[1] == w[0] + 1) => format!("seeds {a}–{b}"),
+                _ => format!("seeds {}", seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")),
+            },
         }
     }
 }
@@ -104,20 +147,34 @@ fn ms(s: f64) -> String {
     format!("{:.0}", s * 1000.0)
 }
 
-/// What validation used and what the test uses.
+/// A quantity chosen outside validation and the conditions it was chosen on.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Tuned {
+    /// What was chosen (a configuration key).
+    pub key: String,
+    /// How, in words.
+    pub how: String,
+    /// What it was chosen on.
+    pub on: Vec<Condition>,
+}
+
+/// What validation used, what the quantities chosen outside it were chosen on, and what the test uses.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Conditions {
     /// Of the validation run that chose the penalty.
     pub validation: Vec<Condition>,
+    /// Of the quantities chosen outside validation.
+    #[serde(default)]
+    pub tuned: Vec<Tuned>,
     /// Of the experiment's test.
     pub test: Vec<Condition>,
 }
 
 impl Conditions {
-    /// Every (validation, test) pair that the module's rule calls shared.
+    /// Every (validation or tuning, test) pair that the module's rule calls shared.
     pub fn shared(&self) -> Vec<(Condition, Condition)> {
         let mut out = Vec::new();
-        for v in &self.validation {
+        for v in self.validation.iter().chain(self.tuned.iter().flat_map(|t| &t.on)) {
             for t in &self.test {
                 if v.shared_with(t) {
                     out.push((v.clone(), t.clone()));
@@ -126,6 +183,25 @@ impl Conditions {
         }
         out
     }
+}
+
+/// The conditions a `[[experiment.tuned]]` entry names.
+fn tuned(t: &crate::config::TunedSection) -> Tuned {
+    let mut on = Vec::new();
+    if !t.seeds.is_empty() {
+        on.push(Condition::Seeds { seeds: t.seeds.clone() });
+    }
+    if let Some(s) = t.run_s {
+        on.push(Condition::Run { seconds: s });
+        if let Some(f) = t.tempo.filter(|f| *f != 1.0) {
+            on.push(Condition::Switch { at_s: s / 2.0, ramp_s: t.tempo_ramp_s.unwrap_or(0.0) });
+            on.push(Condition::Plateau { u: f, hold_s: s / 2.0 });
+        }
+    }
+    if let (Some(every_s), Some(mps)) = (t.push_every_s, t.push_mps) {
+        on.push(Condition::Pushes { every_s, mps });
+    }
+    Tuned { key: t.key.clone(), how: t.how.clone(), on }
 }
 
 fn round_to_step(s: f64, rate: f64) -> f64 {
@@ -143,6 +219,13 @@ fn push(p: &PushSection, offset_s: f64, rate: f64) -> Condition {
 /// The conditions of configuration `c` (which must have an `[experiment]` section).
 pub fn conditions(c: &Config) -> Result<Conditions> {
     let e = super::section(c)?;
+    let validation = validation_conditions(c);
+    let test = test_conditions(c, e);
+    Ok(Conditions { validation, tuned: e.tuned.iter().map(tuned).collect(), test })
+}
+
+/// What `c`'s validation runs under.
+fn validation_conditions(c: &Config) -> Vec<Condition> {
     let rate = c.data.rate_hz;
     let t = &c.training;
     let mut validation = Vec::new();
@@ -188,7 +271,11 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
                     if let Some(p) = &o.push {
                         validation.push(push(p, clock, rate));
                     } else if !ramp && t.noise_variance == 0.0 {
-                        validation.push(Condition::Window { from_s: clock + o.settle_s, to_s: clock + o.stay_s });
+                        validation.push(Condition::Window {
+                            from_s: clock + o.settle_s,
+                            to_s: clock + o.stay_s,
+                            noisy: false,
+                        });
                     }
                 }
                 clock += o.stay_s;
@@ -196,16 +283,25 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
             }
         }
         _ => {
-            if t.noise_variance == 0.0 {
-                validation.push(Condition::Window { from_s: 0.0, to_s: t.validation_samples as f64 / rate });
-            }
+            // The paper's validation: a free run from the trained state, with or without noise.
+            validation.push(Condition::Window {
+                from_s: 0.0,
+                to_s: t.validation_samples as f64 / rate,
+                noisy: t.noise_variance > 0.0,
+            });
         }
     }
+    validation
+}
+
+/// What `c`'s test uses.
+fn test_conditions(c: &Config, e: &crate::config::ExperimentSection) -> Vec<Condition> {
+    let rate = c.data.rate_hz;
     let mut test = Vec::new();
     match &e.test {
         ExperimentTest::Stability(s) => {
             test.push(push(&s.push, 0.0, rate));
-            test.push(Condition::Window { from_s: 0.0, to_s: s.first_samples as f64 / rate });
+            test.push(Condition::Window { from_s: 0.0, to_s: s.first_samples as f64 / rate, noisy: false });
         }
         ExperimentTest::Frequency(f) => {
             let mut clock = 0.0;
@@ -234,12 +330,15 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
             test.push(Condition::Window {
                 from_s: (g.switch_at_s[0] - super::gaits::GAIT_WINDOW_S).max(0.0),
                 to_s: g.switch_at_s[0],
+                noisy: false,
             });
         }
-        ExperimentTest::Coupling(_) => test.push(Condition::Window { from_s: 0.0, to_s: 10.0 }),
+        ExperimentTest::Coupling(_) => test.push(Condition::Window { from_s: 0.0, to_s: 10.0, noisy: false }),
         ExperimentTest::Walking(w) => {
             // The tempo input held at 1, then ramped to the new tempo half-way.
             let half = w.run_s / 2.0;
+            test.push(Condition::Run { seconds: w.run_s });
+            test.push(Condition::Pushes { every_s: w.push_every_s, mps: w.push_mps });
             test.push(Condition::Plateau { u: 1.0, hold_s: half });
             test.push(Condition::Switch { at_s: half, ramp_s: w.tempo_ramp_s });
             test.push(Condition::Plateau { u: w.tempo, hold_s: half - w.tempo_ramp_s });
@@ -255,11 +354,14 @@ pub fn conditions(c: &Config) -> Result<Conditions> {
                 test.push(Condition::Switch { at_s: round_to_step(clock, rate), ramp_s: b.ramp_s });
                 clock += b.ramp_s + b.stay_s;
             }
-            test.push(Condition::Window { from_s: b.run_s - b.stand_s, to_s: b.run_s });
-            test.push(Condition::Window { from_s: b.run_s - crate::measure::WINDOW_S, to_s: b.run_s });
+            test.push(Condition::Window { from_s: b.run_s - b.stand_s, to_s: b.run_s, noisy: false });
+            test.push(Condition::Window { from_s: b.run_s - crate::measure::WINDOW_S, to_s: b.run_s, noisy: false });
         }
     }
-    Ok(Conditions { validation, test })
+    // The seeds the test runs, against those a quantity was chosen on by hand.
+    let first = c.reservoir.seed;
+    test.push(Condition::Seeds { seeds: (first..first + e.seeds).collect() });
+    test
 }
 
 fn tempo_teachers(c: &Config) -> usize {
@@ -281,7 +383,7 @@ mod tests {
         assert!(!s(5.0, 2.0).shared_with(&s(8.0, 1.0)));
         let u = |u| Condition::Plateau { u, hold_s: 5.0 };
         assert!(u(2.0).shared_with(&u(2.0)) && !u(2.5).shared_with(&u(2.0)));
-        let w = |a, b| Condition::Window { from_s: a, to_s: b };
+        let w = |a, b| Condition::Window { from_s: a, to_s: b, noisy: false };
         assert!(w(0.0, 4.0).shared_with(&w(3.0, 6.0)) && !w(6.5, 10.0).shared_with(&w(0.0, 4.2)));
         let n = |v, s| Condition::Noise { variance: v, seed: s };
         assert!(n(1e-3, 1).shared_with(&n(1e-5, 1)) && !n(1e-3, 1).shared_with(&n(1e-3, 2)));

@@ -181,17 +181,39 @@ pub fn differences(paper: &Config, this: &Config) -> Result<Vec<Difference>> {
 /// What a configuration of the paper's protocol changes against what the
 /// paper states: its penalty grid (the only setting of the protocol the
 /// paper gives that the configurations change).
-pub fn paper_protocol_differences(c: &Config) -> Vec<Difference> {
+pub fn paper_protocol_differences(c: &Config, cycles: &[crate::prepare::SegmentCycle]) -> Vec<Difference> {
+    let mut out = Vec::new();
     let g = c.training.penalty_log10;
-    if g == PAPER_PENALTY_GRID {
-        return Vec::new();
+    if g != PAPER_PENALTY_GRID {
+        out.push(Difference {
+            key: "training.penalty_log10".into(),
+            what: "penalty grid".into(),
+            paper: grid(PAPER_PENALTY_GRID),
+            this: grid(g),
+        });
     }
-    vec![Difference {
-        key: "training.penalty_log10".into(),
-        what: "penalty grid".into(),
-        paper: grid(PAPER_PENALTY_GRID),
-        this: grid(g),
-    }]
+    // The paper concatenates each recording as it is (E1: "one set containing
+    // 358 samples"); a loop cut from it is one seamless stride repeated.
+    let looped: Vec<&crate::prepare::SegmentCycle> = cycles.iter().filter(|s| s.loop_len > 0).collect();
+    if c.data.loop_cycles >= 1 && !looped.is_empty() {
+        let each = |f: &dyn Fn(&crate::prepare::SegmentCycle) -> String| {
+            looped.iter().map(|s| f(s)).collect::<Vec<_>>().join("; ")
+        };
+        out.push(Difference {
+            key: "data.loop_cycles".into(),
+            what: "training set".into(),
+            paper: format!(
+                "each recording whole, concatenated ({})",
+                each(&|s| format!("{}: {} samples", s.label, s.frames))
+            ),
+            this: format!(
+                "a seamless loop of {} gait cycle(s) cut from each and repeated ({})",
+                c.data.loop_cycles,
+                each(&|s| format!("{}: {} frames from {}", s.label, s.loop_len, s.loop_start))
+            ),
+        });
+    }
+    out
 }
 
 /// A grid as the paper writes it: `10^(1:−0.1:−8)`.

@@ -194,8 +194,14 @@ pub fn verdict(v: &Verdict) -> String {
         Decision::Reproduced => "reproduced",
         Decision::NotReproduced => "not reproduced",
         Decision::NotRun => "not run",
+        Decision::NotApplicable => "not applicable",
     };
-    if v.at_limit { format!("{word} (at the limit)") } else { word.to_owned() }
+    let word = if v.at_limit { format!("{word} (at the limit)") } else { word.to_owned() };
+    match (&v.note, v.decision) {
+        (Some(n), Decision::NotApplicable) => format!("{word}: {n}"),
+        (Some(n), _) => format!("{word} ({n})"),
+        (None, _) => word,
+    }
 }
 
 /// A measured value as printed: counts with their 95 % interval, spreads
@@ -212,7 +218,15 @@ pub fn value(v: &Value) -> String {
             } else if s.n == 1 {
                 format!("{:.*}{} (n = 1)", digits, s.median, unit(u))
             } else {
-                format!("{:.*}{} ({:.*}–{:.*}; n = {})", digits, s.median, unit(u), digits, s.min, digits, s.max, s.n)
+                // Values exact at the printed digits (counts of channels) whose median, the
+                // mean of the middle two, falls between them (41.5) get one more digit for
+                // the median: never rounded to a count no seed had.
+                let exact = |x: f64| {
+                    let v = x * 10f64.powi(*digits as i32);
+                    (v - v.round()).abs() <= 1e-9 * v.abs().max(1.0)
+                };
+                let md = if exact(s.min) && exact(s.max) && !exact(s.median) { digits + 1 } else { *digits };
+                format!("{:.*}{} ({:.*}–{:.*}; n = {})", md, s.median, unit(u), digits, s.min, digits, s.max, s.n)
             }
         }
         Value::Number { value, unit: u, digits } => format!("{value:.*}{}", digits, unit(u)),
@@ -341,8 +355,14 @@ pub fn protocols(s: &mut Section, hs: &[&Header], ctx: &Context) {
             if v.is_empty() { "none".to_owned() } else { v.iter().map(|c| c.describe()).collect::<Vec<_>>().join("; ") }
         };
         let shared = h.conditions.shared();
+        let tuned: String = h
+            .conditions
+            .tuned
+            .iter()
+            .map(|t| format!(" `{}` was chosen outside validation ({}) on: {}.", t.key, t.how, list(&t.on)))
+            .collect();
         s.line(format!(
-            "Validation ran under: {}. The test uses: {}. Shared by both: {}.",
+            "Validation ran under: {}.{tuned} The test uses: {}. Shared by the test and what chose a setting: {}.",
             list(&h.conditions.validation),
             list(&h.conditions.test),
             if shared.is_empty() {

@@ -119,6 +119,15 @@ pub struct GaitsResult {
 /// Fraction of seeds that must pass.
 pub const SEED_FRACTION: f64 = 0.8;
 
+/// A gait window holds a rhythm when it has a period and at least this
+/// share of its teacher's amplitude (the worst channel's half range).
+pub const RHYTHM_AMPLITUDE: f64 = 0.5;
+
+/// Whether a gait window holds a rhythm (see [`RHYTHM_AMPLITUDE`]).
+fn has_rhythm(w: &GaitWindow) -> bool {
+    w.period_steps.is_some() && w.amplitude_ratio >= RHYTHM_AMPLITUDE
+}
+
 impl GaitsResult {
     /// Seeds that passed.
     pub fn n_passed(&self) -> usize {
@@ -134,12 +143,24 @@ impl GaitsResult {
     /// The abrupt switches spike: the median largest step after an abrupt
     /// switch is larger than the data's largest step.
     pub fn spike_verdict(&self) -> Verdict {
+        let rule = format!(
+            "the median over seeds of the largest step-to-step change in the 2 s after an abrupt switch is larger than the largest in the two teacher cycles (a rule for a generator with both gaits: it does not apply when fewer than half the seeds hold a rhythm before the switches, a period and at least {RHYTHM_AMPLITUDE} of the teacher's amplitude)"
+        );
+        let with_rhythm = self.seeds.iter().filter(|s| has_rhythm(&s.first) && has_rhythm(&s.second)).count();
+        if 2 * with_rhythm < self.seeds.len() {
+            let amp = crate::stats::median(
+                &self.seeds.iter().map(|s| s.first.amplitude_ratio.min(s.second.amplitude_ratio)).collect::<Vec<_>>(),
+            );
+            return Verdict::not_applicable(
+                format!(
+                    "no rhythm: {with_rhythm} of {} seeds hold both gaits before the switches (median amplitude {amp:.2} of the teacher's), so there is no gait to switch from",
+                    self.seeds.len()
+                ),
+                rule,
+            );
+        }
         let m = crate::stats::median(&self.seeds.iter().map(|s| s.max_jump_abrupt).collect::<Vec<_>>());
-        Verdict::new(
-            m > self.data_step,
-            at_limit(m, self.data_step, 3),
-            "the median over seeds of the largest step-to-step change in the 2 s after an abrupt switch is larger than the largest in the two teacher cycles",
-        )
+        Verdict::new(m > self.data_step, at_limit(m, self.data_step, 3), rule)
     }
 
     /// Fills [`GaitsResult::claims`] and [`GaitsResult::table`] from the seeds.

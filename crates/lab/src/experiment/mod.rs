@@ -47,7 +47,12 @@ pub fn verdict_over(j: &[Judged], fraction: f64, rule: impl Into<String>) -> Ver
     let pl = j.iter().filter(|s| s.passed && s.at_limit).count();
     let fl = j.iter().filter(|s| !s.passed && s.at_limit).count();
     let (ok, fragile) = claim::over_seeds(passed, j.len(), fraction, pl, fl);
-    Verdict::new(ok, fragile, rule)
+    let mut v = Verdict::new(ok, fragile, rule);
+    let needed = claim::seeds_needed(j.len(), fraction);
+    if ok && passed == needed && passed < j.len() {
+        v.note = Some(format!("at exactly its threshold: {passed} of {} seeds, {needed} needed", j.len()));
+    }
+    v
 }
 
 /// Reports how far a long experiment has come (the app draws a progress bar).
@@ -446,7 +451,7 @@ pub fn header(c: &Config, p: &Prepared, n_neurons: usize) -> Result<Header> {
         penalty_grid: (crate::train::train_settings(c)?.penalties.len(), g.start, g.stop),
         n_neurons,
         differs: match (e.protocol, &e.paper_config) {
-            (crate::config::Protocol::Paper, _) => differs::paper_protocol_differences(c),
+            (crate::config::Protocol::Paper, _) => differs::paper_protocol_differences(c, &p.cycles),
             // The files as written (a quick run changes sizes in memory).
             (_, Some(p)) => {
                 differs::differences(&Config::load(p)?, &Config::load(&c.source).unwrap_or_else(|_| c.clone()))?
@@ -537,7 +542,7 @@ mod tests {
             penalty_grid: (131, 5.0, -8.0),
             n_neurons: 300,
             differs: Vec::new(),
-            conditions: conditions::Conditions { validation: Vec::new(), test: Vec::new() },
+            conditions: conditions::Conditions { validation: Vec::new(), tuned: Vec::new(), test: Vec::new() },
             warnings: Vec::new(),
         }
     }

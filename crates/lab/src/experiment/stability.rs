@@ -139,7 +139,7 @@ impl StabilityResult {
 
     /// Seeds back on the teacher's orbit for good after the push.
     pub fn n_recovered(&self) -> usize {
-        self.seeds.iter().filter(|s| s.recovery.orbit_s.is_some()).count()
+        self.seeds.iter().filter(|s| recovered(s)).count()
     }
 
     /// E1: the pattern is learnt.
@@ -168,14 +168,30 @@ impl StabilityResult {
         )
     }
 
-    /// E3: recovery from the push.
+    /// E3: recovery from the push, onto the orbit the seed's own unpushed
+    /// run keeps (recovery as such; the teacher's orbit beside it measures
+    /// E2's accuracy as much as recovery).
     pub fn e3_verdict(&self) -> Verdict {
-        let j: Vec<Judged> =
-            self.seeds.iter().map(|s| Judged { passed: s.recovery.orbit_s.is_some(), at_limit: false }).collect();
+        let j: Vec<Judged> = self.seeds.iter().map(|s| Judged { passed: recovered(s), at_limit: false }).collect();
         verdict_over(
             &j,
             SEED_FRACTION,
-            "at least 90 % of the seeds back on the teacher's orbit for good: within 0.25 σ over quarter-period windows from some time after the release until the end of the 40 cycles that follow it",
+            "at least 90 % of the seeds back for good on the orbit their own unpushed run keeps (its last period), a rhythm (a run that decays has none to return to): within 0.25 σ over quarter-period windows from some time after the release until the end of the 40 cycles that follow it",
+        )
+    }
+
+    /// Which seeds failed which part of the recovery, in words.
+    fn recovery_failures(&self) -> String {
+        let list = |f: &dyn Fn(&StabilitySeed) -> bool| -> String {
+            let v: Vec<String> = self.seeds.iter().filter(|s| f(s)).map(|s| s.model.seed.to_string()).collect();
+            if v.is_empty() { "none".into() } else { v.join(", ") }
+        };
+        format!(
+            "not back on their own orbit: {}; decayed (no rhythm to return to): {}; not back on the teacher's orbit: {}, of which the unpushed run itself ends off it: {}",
+            list(&|s| s.recovery.own_orbit_s.is_none()),
+            list(&|s| s.stability.decayed_at_s.is_some()),
+            list(&|s| s.recovery.orbit_s.is_none()),
+            list(&|s| s.recovery.orbit_s.is_none() && !s.recovery.unpushed_on_orbit)
         )
     }
 
@@ -195,7 +211,8 @@ impl StabilityResult {
                 verdict,
             };
         let first: Vec<f64> = self.seeds.iter().map(|s| s.first_nmse).collect();
-        let back: Vec<f64> = self.seeds.iter().filter_map(|s| s.recovery.orbit_s).collect();
+        let back: Vec<f64> =
+            self.seeds.iter().filter(|s| recovered(s)).filter_map(|s| s.recovery.own_orbit_s).collect();
         let twin: Vec<f64> = self.seeds.iter().filter_map(|s| s.recovery.twin_s).collect();
         self.claims = vec![
             claim(
@@ -232,10 +249,19 @@ impl StabilityResult {
                 claim::RECOVERS_WELL,
                 vec![
                     Measure::count(
+                        "seeds back for good on the rhythm their own unpushed run keeps",
+                        crate::stats::Proportion::count(self.seeds.iter().map(recovered)),
+                    ),
+                    Measure::spread("time from the release until back on it (seeds that are)", &back, "s", 2),
+                    Measure::count(
                         "seeds back on the teacher's orbit for good",
                         crate::stats::Proportion::count(self.seeds.iter().map(|s| s.recovery.orbit_s.is_some())),
                     ),
-                    Measure::spread("time from the release until back on the orbit (seeds that are)", &back, "s", 2),
+                    Measure::count(
+                        "seeds whose unpushed run itself ends on the teacher's orbit",
+                        crate::stats::Proportion::count(self.seeds.iter().map(|s| s.recovery.unpushed_on_orbit)),
+                    ),
+                    Measure::text("which seeds failed", self.recovery_failures()),
                 ],
                 self.e3_verdict(),
             ),
@@ -272,6 +298,12 @@ pub fn continuation(t: &Teacher, d: usize, warmup_len: usize, n: usize) -> Vec<f
 /// NMSE of `y` against `target` (both `t × d`), each channel divided by the
 /// target's variance, averaged: [`cpg_regression::nmse`], the one definition.
 pub use cpg_regression::nmse;
+
+/// Whether a seed recovered from the push: back for good on the orbit its
+/// unpushed run keeps, and that run a rhythm (not decayed).
+fn recovered(s: &StabilitySeed) -> bool {
+    s.recovery.own_orbit_s.is_some() && s.stability.decayed_at_s.is_none()
+}
 
 /// Runs E1–E3 on configuration `c`.
 pub fn run(c: &Config, s: &StabilitySection, opts: Options, progress: &dyn Progress) -> Result<StabilityResult> {

@@ -610,7 +610,11 @@ mod tests {
             penalty_grid: (91, 4.0, -5.0),
             n_neurons: 600,
             differs: Vec::new(),
-            conditions: crate::experiment::conditions::Conditions { validation: Vec::new(), test: Vec::new() },
+            conditions: crate::experiment::conditions::Conditions {
+                validation: Vec::new(),
+                tuned: Vec::new(),
+                test: Vec::new(),
+            },
             warnings: Vec::new(),
         }
     }
@@ -646,6 +650,8 @@ mod tests {
                         stability: JudgedRun { steps: 1000, accurate: true, converged: true, posture: None },
                         recovery: crate::measure::Recovery {
                             orbit_s: Some(0.2),
+                            own_orbit_s: Some(0.2),
+                            unpushed_on_orbit: true,
                             twin_s: None,
                             phase_shift_cycles: 0.0,
                         },
@@ -704,6 +710,15 @@ mod tests {
         assert!(walked(&short(1.05)), "1.05 m in 20 s is faster than 3 m in 60 s");
         assert!(!walked(&short(0.95)));
         assert!(!walked(&run(false, 2.9, 2.0, (0, 0))), "a 60-s run needs the whole 3 m");
+    }
+
+    /// The gait diagram once showed the planned start walk (0–10 s), not the
+    /// CPG, which takes over later: it shows 10 s from the hand-over.
+    #[test]
+    fn the_gait_diagram_shows_the_cpg_s_own_strides() {
+        let r = run(false, 3.7, 2.0, (0, 0));
+        assert_eq!(section::gait_window(&r), (11.0, 21.0));
+        assert_eq!(section::gait_window(&SimRun { handover_s: None, ..r }), (0.0, 10.0));
     }
 
     #[test]

@@ -150,7 +150,12 @@ fn trainers(s: &mut Section, rs: &[&BodyResult]) {
             let mut row = vec![
                 trainer(r),
                 r.header.n_neurons.to_string(),
-                format!("{:.1} s", r.train_wall_s / all as f64 * r.threads.min(all).max(1) as f64),
+                format!(
+                    "{:.1} s ({all} seeds in {:.0} s on {} threads)",
+                    r.train_wall_s / all as f64 * r.threads.min(all).max(1) as f64,
+                    r.train_wall_s,
+                    r.threads
+                ),
             ];
             row.push(count(&|s| s.stand.passed));
             for k in 0..r.held_out.len() {

@@ -327,7 +327,7 @@ fn generalisation(s: &mut Section, r: &FamiliesResult) {
         g.fitted_trial, g.other_trial
     ));
     s.blank();
-    s.line(format!("Body-frame positions (the root's six channels set to zero, so the two trials share place and heading). Each model runs freely; the start offset (up to one gait cycle, {} frames) that best matches the trial is chosen, which aligns the phase. The cycle is the gait cycle with the smallest seam in {} (frames {}–{}), the one E6 learns.", g.cycle.1, g.fitted_trial, g.cycle.0, g.cycle.0 + g.cycle.1));
+    s.line(format!("Body-frame positions (the root's six channels set to zero, so the two trials share place and heading). Each model runs freely; the start offset (up to one gait cycle, {} frames) that best matches the trial is chosen, which aligns the phase. The cycle the one-cycle models learn is the gait cycle with the smallest seam in {}'s body-frame positions (frames {}–{}); E6's reservoir learnt its own loop, cut from the joint angles, so the two need not start on the same frame.", g.cycle.1, g.fitted_trial, g.cycle.0, g.cycle.0 + g.cycle.1));
     s.blank();
     let rows: Vec<Vec<String>> = g
         .rows

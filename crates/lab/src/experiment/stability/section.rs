@@ -46,6 +46,7 @@ fn seeds_table(s: &mut Section, r: &StabilityResult) {
                 format!("{:.4}", st.end.aligned_nmse),
                 yes(st.converged).into(),
                 format!("{}{}", yes(st.accurate), if s.accurate.at_limit { " (at the limit)" } else { "" }),
+                secs(s.recovery.own_orbit_s),
                 secs(s.recovery.orbit_s),
                 secs(s.recovery.twin_s),
                 format!("{:+.3}", s.recovery.phase_shift_cycles),
@@ -63,11 +64,12 @@ fn seeds_table(s: &mut Section, r: &StabilityResult) {
             "last-10-s aligned NMSE",
             "converged",
             "accurate",
-            "back on the orbit",
+            "back on its own orbit",
+            "back on the teacher's orbit",
             "back on the twin",
             "phase shift (cycles)",
         ],
-        "rrrrrrrllrrr",
+        "rrrrrrrllrrrr",
         &rows,
     );
 }

@@ -143,6 +143,13 @@ fn early_falls(s: &mut Section, r: &WalkingResult) {
     }
 }
 
+/// The stretch of a run the gait diagram shows: 10 s of the CPG's own
+/// walking, from its hand-over (a run with none: from the start), seconds.
+pub fn gait_window(run: &super::SimRun) -> (f64, f64) {
+    let from = run.handover_s.unwrap_or(0.0);
+    (from, from + 10.0)
+}
+
 /// The first seed's recorded runs: the trunk's path from above and the soles' contacts.
 fn figures(s: &mut Section, r: &WalkingResult) {
     let Some(first) = r.eval.seeds.first() else { return };
@@ -163,10 +170,11 @@ fn figures(s: &mut Section, r: &WalkingResult) {
         })
         .collect();
     let flat = recorded[0].1;
-    let span = flat.contacts_n.iter().take_while(|p| p[0] <= flat.contacts_n[0][0] + 10.0).count();
-    let weight = flat.contacts_n.iter().map(|p| p[1] + p[2]).fold(0.0_f64, f64::max).max(1e-9);
+    let (from, to) = gait_window(flat);
+    let shown: Vec<&[f64; 3]> = flat.contacts_n.iter().filter(|p| (from..=to).contains(&p[0])).collect();
+    let weight = shown.iter().map(|p| p[1] + p[2]).fold(0.0_f64, f64::max).max(1e-9);
     let contact = |k: usize| -> Vec<(f64, f64)> {
-        flat.contacts_n[..span].iter().map(|p| (p[0], p[k] / weight + if k == 1 { 1.2 } else { 0.0 })).collect()
+        shown.iter().map(|p| (p[0], p[k] / weight + if k == 1 { 1.2 } else { 0.0 })).collect()
     };
     s.figure(
         "fig_walking",
@@ -180,7 +188,9 @@ fn figures(s: &mut Section, r: &WalkingResult) {
             },
             Panel {
                 equal_axes: false,
-                title: "gait diagram: sole forces over the first 10 s of the flat run (left above, right below)".into(),
+                title: format!(
+                    "gait diagram: the CPG's own strides, sole forces from {from:.1} to {to:.1} s of the flat run (left above, right below)"
+                ),
                 x_label: "time (s)".into(),
                 y_label: "force / largest total".into(),
                 curves: vec![
