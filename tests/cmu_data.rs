@@ -158,8 +158,11 @@ fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
     use cpg_hoap2::walk::Support;
     use cpg_lab::retarget::{RetargetOptions, human_walk, retarget};
     let sk = skeleton35();
-    let trials: Vec<_> =
-        (1..=6).map(|i| sk.forward_kinematics(&motion35(&sk, &format!("35_0{i}.amc"))).unwrap()).collect();
+    let profile = cpg_mocap::profile::Profile::for_skeleton(&sk, None).unwrap();
+    assert_eq!(profile.profile, "cmu-asf");
+    let trials: Vec<_> = (1..=6)
+        .map(|i| (sk.forward_kinematics(&motion35(&sk, &format!("35_0{i}.amc"))).unwrap(), profile.clone()))
+        .collect();
     let human = human_walk(&trials).unwrap();
     // Subject 35 walks a stride in about 1.1 s, a foot on the ground a little over half of it.
     assert!(human.strides >= 6, "{human:?}");
@@ -203,4 +206,53 @@ fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
         let floor = if s.human.starts_with("ankle") { 0.4 } else { 0.85 };
         assert!(s.shifted.0 > floor, "{s:?}");
     }
+}
+
+/// Another person: CMU subject 07's walk in the common BVH conversion (bones
+/// `LeftUpLeg`, `LeftLeg`, …) is measured through the built-in `cmu-bvh`
+/// profile; the same file with every bone renamed is refused without a
+/// profile (naming what it looked for) and measured identically with a
+/// profile file naming the new bones.
+#[test]
+fn another_persons_bvh_walk_is_measured_through_its_skeleton_profile() {
+    use cpg_lab::retarget::human_walk;
+    use cpg_mocap::profile::Profile;
+    let path = data::find(Subject::OtherBvh, "07_06.bvh").unwrap_or_else(|e| panic!("{e}"));
+    let read = |text: &str| {
+        let b = cpg_mocap::parse_bvh("07_06.bvh", text.as_bytes(), &cpg_mocap::BvhOptions::default()).unwrap();
+        (b.skeleton.forward_kinematics(&b.motion).unwrap(), b.skeleton)
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (pos, sk) = read(&text);
+    let points = Profile::for_skeleton(&sk, None).unwrap();
+    assert_eq!(points.profile, "cmu-bvh");
+    let human = human_walk(&[(pos, points)]).unwrap();
+    // Subject 07 walks a stride of about 138 frames at 120 Hz (the data's README), feet on the ground over half of it.
+    assert!(human.strides >= 2, "{human:?}");
+    assert!((1.0..1.35).contains(&human.stride_period_s), "{human:?}");
+    assert!((0.5..0.75).contains(&human.duty_factor), "{human:?}");
+    assert!((0.7..1.1).contains(&human.leg_length_m), "{human:?}");
+
+    // The same motion, its bones named otherwise.
+    let renamed = ["LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "LeftArm", "LeftForeArm", "LeftHand"]
+        .iter()
+        .fold(text.clone(), |t, b| {
+            let n = format!("L_{}", &b[4..]);
+            t.replace(&format!("JOINT {b}\r"), &format!("JOINT {n}\r"))
+                .replace(&format!("JOINT {b}\n"), &format!("JOINT {n}\n"))
+        })
+        .replace("JOINT Neck\r", "JOINT Collar\r")
+        .replace("JOINT Neck\n", "JOINT Collar\n");
+    assert_ne!(renamed, text);
+    let (pos2, sk2) = read(&renamed);
+    let e = Profile::for_skeleton(&sk2, None).unwrap_err().to_string();
+    assert!(e.contains("profile 'cmu-bvh': chest = 'Neck'") && e.contains("profile file"), "{e}");
+    let file = "name = \"renamed\"\npelvis = \"root\"\nchest = \"Collar\"\n[left]\nhip = \"L_UpLeg\"\nknee = \"L_Leg\"\nankle = \"L_Foot\"\ntoes = \"L_ToeBase\"\nshoulder = \"L_Arm\"\nelbow = \"L_ForeArm\"\nwrist = \"L_Hand\"\n[right]\nhip = \"RightUpLeg\"\nknee = \"RightLeg\"\nankle = \"RightFoot\"\ntoes = \"RightToeBase\"\nshoulder = \"RightArm\"\nelbow = \"RightForeArm\"\nwrist = \"RightHand\"\n";
+    let profile = Profile::parse("renamed.toml", file).unwrap();
+    let points2 = Profile::for_skeleton(&sk2, Some(&profile)).unwrap();
+    assert_eq!(human_walk(&[(pos2, points2)]).unwrap(), human);
+    // A profile naming a bone the skeleton lacks says which and what is near.
+    let wrong = Profile::parse("wrong.toml", &file.replace("L_Leg\"", "L_Lge\"")).unwrap();
+    let e = Profile::for_skeleton(&sk2, Some(&wrong)).unwrap_err().to_string();
+    assert!(e.contains("left.knee = 'L_Lge'") && e.contains("L_Leg"), "{e}");
 }

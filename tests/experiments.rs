@@ -348,6 +348,18 @@ fn the_whole_body_walks_and_runs_like_trials_it_never_saw() {
     }
     like_the_held_out_trials(&r);
     assert!(r.seeds.iter().all(|s| s.switches.len() == 4));
+    // Travel is carried by the stance foot: a figure whose feet stand still does not travel.
+    for s in &r.seeds {
+        assert!(s.stand.travel_mm <= 20.0, "seed {}: standing travelled {:.1} mm", s.model.seed, s.stand.travel_mm);
+    }
+    // The training sequence's switches are time-warped, not blended: its own feet stay planted
+    // (within the recorded trials' own largest slide).
+    let taught = r.teacher_slide_mm.expect("the whole body has feet");
+    assert!(
+        taught <= r.slide_limit_mm(),
+        "the training sequence slides {taught:.1} mm, the trials {:.1} mm",
+        r.slide_limit_mm()
+    );
 }
 
 /// Every seed's gaits keep the held-out trials' period within 3 % and come
@@ -382,4 +394,24 @@ fn force_learns_the_whole_body_too() {
     assert_eq!(r.trainer, "FORCE");
     assert_eq!(r.channels.len(), 62);
     like_the_held_out_trials(&r);
+}
+
+/// Validation's stays name teachers as training reads them (a group of
+/// trials is one): the whole body's validation switches are at 15, 32, 49
+/// and 66 s, where reading the sequence as segment numbers once printed 47
+/// and 62 (and a stay with no switch).
+#[test]
+fn validation_switches_are_where_training_lays_them() {
+    let c = config("whole-body");
+    let k = experiment::conditions::conditions(&c).unwrap();
+    let at: Vec<f64> = k
+        .validation
+        .iter()
+        .filter_map(|v| match v {
+            experiment::conditions::Condition::Switch { at_s, .. } => Some(*at_s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(at, [15.0, 32.0, 49.0, 66.0]);
+    assert_eq!(c.data.teacher_segments(), [0, 1, 7]);
 }

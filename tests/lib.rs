@@ -37,6 +37,7 @@ pub fn manifest(subject: Subject) -> Vec<ManifestEntry> {
     let dir = match subject {
         Subject::S35 => "data/cmu35",
         Subject::S86 => "data/cmu86",
+        Subject::OtherBvh => "data/cmu-bvh",
     };
     let text = std::fs::read_to_string(workspace_root().join(dir).join("MANIFEST.tsv")).expect("manifest");
     text.lines()

@@ -12,9 +12,10 @@ use sha2::{Digest, Sha256};
 /// Arguments of `fetch-data`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which subject: 35 (walk/run), 86 (skeleton; its long AMC trials are
-    /// downloaded when reachable), or all.
-    #[arg(long, default_value = "all", value_parser = ["35", "86", "all"])]
+    /// Which data set: 35 (walk/run), 86 (skeleton; its long AMC trials are
+    /// downloaded when reachable), bvh (other people's walks and a run, CMU
+    /// subjects 07, 09 and 16 in BVH: data/cmu-bvh), or all.
+    #[arg(long, default_value = "all", value_parser = ["35", "86", "bvh", "all"])]
     subject: String,
     /// Copy from this directory instead of the default source.
     #[arg(long)]
@@ -23,7 +24,7 @@ pub struct Args {
     /// even when a local copy exists.
     #[arg(long, num_args = 0..=1, default_missing_value = CMU_BASE_URL)]
     download: Option<String>,
-    /// Directory to fill instead of data/cmuSUBJECT.
+    /// Directory to fill instead of data/cmuSUBJECT (data/cmu-bvh).
     #[arg(long)]
     dest: Option<PathBuf>,
     /// Do not draw progress bars.
@@ -121,14 +122,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let subjects: &[&str] = match args.subject.as_str() {
         "35" => &["35"],
         "86" => &["86"],
-        _ => &["35", "86"],
+        "bvh" => &["bvh"],
+        _ => &["35", "86", "bvh"],
     };
     let mut failures = Vec::new();
     for s in subjects {
-        let data_dir = crate::root().join(format!("data/cmu{s}"));
+        // A CMU subject's files (data/cmu35, ../shared/data/cmu/35), or the other people's BVH set.
+        let (data_dir, shared) = match *s {
+            "bvh" => (crate::root().join("data/cmu-bvh"), crate::root().join("../shared/data/cmu-bvh")),
+            _ => (crate::root().join(format!("data/cmu{s}")), crate::root().join(format!("../shared/data/cmu/{s}"))),
+        };
         let entries = parse_manifest(&data_dir.join("MANIFEST.tsv"))?;
         let dest = args.dest.clone().unwrap_or(data_dir);
-        let shared = crate::root().join(format!("../shared/data/cmu/{s}"));
         let source = match (&args.download, &args.from) {
             (Some(url), _) => Source::Http(url.clone()),
             (None, Some(dir)) => Source::Dir(dir.clone()),
@@ -445,5 +450,8 @@ mod tests {
         assert_eq!(m35.iter().filter(|e| !e.official).count(), 9);
         let m86 = parse_manifest(&crate::root().join("data/cmu86/MANIFEST.tsv")).unwrap();
         assert_eq!(m86.iter().map(|e| e.file.as_str()).collect::<Vec<_>>(), ["86.asf", "86_01.amc", "86_02.amc"]);
+        let bvh = parse_manifest(&crate::root().join("data/cmu-bvh/MANIFEST.tsv")).unwrap();
+        assert_eq!(bvh.iter().map(|e| e.file.as_str()).collect::<Vec<_>>(), ["07_06.bvh", "16_21.bvh", "09_07.bvh"]);
+        assert!(bvh.iter().all(|e| e.official && e.sha256.is_some() && e.bytes.is_some()));
     }
 }

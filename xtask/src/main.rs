@@ -26,7 +26,7 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Fill data/cmu35 (and data/cmu86) with the CMU files listed in their MANIFEST.tsv.
+    /// Fill data/cmu35, data/cmu86 and data/cmu-bvh (other people, in BVH) with the files listed in their MANIFEST.tsv.
     ///
     /// Files are copied from a directory (--from; by default ../shared/data/cmu/SUBJECT
     /// when it exists) or downloaded from the CMU site. Every file is checked

@@ -78,6 +78,11 @@ enum Command {
         /// The skeleton (.asf) of .amc trials.
         #[arg(long, short)]
         skeleton: Option<PathBuf>,
+        /// Which bones are the person's hips, knees, ankles, toes, shoulders, elbows and wrists:
+        /// a profile file (docs/skeletons.md) for a skeleton whose bones are named otherwise
+        /// [default: the built-in profile the skeleton fits, CMU's ASF or CMU's BVH conversion].
+        #[arg(long)]
+        profile: Option<PathBuf>,
         /// Steps to walk (the first and last half steps included).
         #[arg(long, default_value_t = 20)]
         steps: usize,
@@ -415,6 +420,7 @@ fn main() -> ExitCode {
         Command::Retarget {
             motions,
             skeleton,
+            profile,
             steps,
             step_scale,
             lift_scale,
@@ -429,6 +435,7 @@ fn main() -> ExitCode {
         } => commands::retarget(commands::Retarget {
             motions: &motions,
             skeleton: skeleton.as_deref(),
+            profile: profile.as_deref(),
             options: cpg_lab::retarget::RetargetOptions {
                 step_scale,
                 lift_scale,

@@ -81,6 +81,11 @@ pub struct DataSection {
     /// With loops: how many times the sequence of segment blocks is repeated.
     #[serde(default = "default_repeats")]
     pub repeats: usize,
+    /// With loops: the teachers' blocks in this order (each repeated
+    /// `repeats` times), so that every switch a test asks for is taught
+    /// (default: each teacher in turn).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sequence: Option<Vec<usize>>,
     /// With loops: seconds of phase-continuous blend from one segment's cycle
     /// to the next between blocks, while the controls ramp (0: blocks abut).
     #[serde(default)]
@@ -134,6 +139,10 @@ pub struct RetargetSection {
     /// Strides of the steady walk repeated to make each segment's motion.
     #[serde(default = "default_retarget_strides")]
     pub strides: usize,
+    /// The trials' skeleton profile file (`cpg_mocap::profile`; default:
+    /// the built-in profile their skeleton fits, CMU's ASF or BVH).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<PathBuf>,
 }
 
 /// `[[data.segments]]`: one motion file (or a part of it).
@@ -168,6 +177,14 @@ pub struct SegmentSection {
     /// aligned in phase with the first.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub group: Option<String>,
+    /// With `stand`: the posture is a frame of the named rhythm (a group's or
+    /// a segment's label), the one where both feet are lowest (double
+    /// support), and the training blends into and out of it are time-warped:
+    /// the rhythm's pace grows from 0 out of that frame and falls back to 0
+    /// onto it, the motion as recorded, only slower (no amplitude blend, so no
+    /// foot is dragged along the floor).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stand_from: Option<String>,
 }
 
 /// `[data.tempo]`: the loop played at a rate `u(t)` that drifts smoothly
@@ -1055,6 +1072,19 @@ fn line_of(text: &str, at: usize) -> usize {
 }
 
 impl DataSection {
+    /// The segments the model's teachers come from, in the teachers' order:
+    /// each segment without a `group`, and each group at its first segment
+    /// (the group's trials are one teacher). The one reading of "teacher k"
+    /// for training, validation's layout and the report.
+    pub fn teacher_segments(&self) -> Vec<usize> {
+        (0..self.segments.len())
+            .filter(|&i| match &self.segments[i].group {
+                None => true,
+                Some(g) => !self.segments[..i].iter().any(|x| x.group.as_ref() == Some(g)),
+            })
+            .collect()
+    }
+
     /// Checks the `[data.retarget]` section against the segments.
     fn check_retarget(&self) -> std::result::Result<(), (String, String)> {
         let bad = |f: String, m: &str| Err((f, m.to_owned()));
@@ -1147,7 +1177,10 @@ impl Config {
         out.extend(self.data.skeleton.as_mut());
         out.push(&mut self.output.model);
         out.extend(self.data.segments.iter_mut().map(|s| &mut s.motion).filter(|m| !m.as_os_str().is_empty()));
-        out.extend(self.data.retarget.iter_mut().flat_map(|r| r.trials.iter_mut()));
+        if let Some(r) = self.data.retarget.as_mut() {
+            out.extend(r.trials.iter_mut());
+            out.extend(r.profile.as_mut());
+        }
         if let Some(e) = self.experiment.as_mut() {
             out.extend(e.paper_config.as_mut());
             out.extend(e.test.paths_mut());
@@ -1304,6 +1337,31 @@ impl DataSection {
                 return fail(&f, format!("'{g}': every trial of a group holds the same controls"));
             }
         }
+        for (k, s) in d.segments.iter().enumerate() {
+            let Some(from) = &s.stand_from else { continue };
+            let f = format!("data.segments[{k}].stand_from");
+            if !s.stand || d.retarget.is_some() {
+                return fail(
+                    &f,
+                    "names the rhythm a standing segment (stand = true) is a frame of; not with [data.retarget]",
+                );
+            }
+            let rhythm = |x: &SegmentSection| {
+                !x.stand && (x.group.as_deref() == Some(from.as_str()) || x.label.as_deref() == Some(from.as_str()))
+            };
+            if !d.segments.iter().any(rhythm) {
+                return fail(&f, format!("'{from}' is neither the group nor the label of a rhythm segment"));
+            }
+        }
+        if let Some(seq) = &d.sequence {
+            let n = self.teacher_segments().len();
+            if seq.is_empty() || seq.len() > MAX_SEGMENTS {
+                return fail("data.sequence", format!("{} entries; expected 1 to {MAX_SEGMENTS}", seq.len()));
+            }
+            if let Some(k) = seq.iter().find(|&&k| k >= n) {
+                return fail("data.sequence", format!("names teacher {k}; there are {n} (0-based; a group is one)"));
+            }
+        }
         if let Some(k) = d.segments.iter().position(|s| s.stand) {
             if d.loop_cycles == 0 {
                 return fail(
@@ -1317,11 +1375,15 @@ impl DataSection {
         }
         if d.loop_cycles > 0 && d.tempo.is_none() {
             // The training sequence's length is known from the file alone: bounded before any motion is read.
-            let blocks = d.segments.len().saturating_mul(d.repeats);
+            // (A time-warped stop lasts at most two cycles, of at most period_s[1], beyond its ramp.)
+            let per = d.sequence.as_ref().map_or(d.segments.len(), Vec::len);
+            let blocks = per.saturating_mul(d.repeats);
             let morph = (d.morph_s * d.rate_hz).round() as usize;
+            let warped = d.segments.iter().any(|s| s.stand_from.is_some());
+            let cycle = if warped { 2 * (d.period_s[1] * d.rate_hz).ceil() as usize } else { 0 };
             let total = blocks
                 .saturating_mul(d.samples_per_segment)
-                .saturating_add(blocks.saturating_sub(1).saturating_mul(morph));
+                .saturating_add(blocks.saturating_sub(1).saturating_mul(morph.saturating_add(cycle)));
             if total > max_samples {
                 return fail(
                     "data.samples_per_segment",

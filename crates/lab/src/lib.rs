@@ -56,6 +56,7 @@ pub mod schedule;
 pub mod stats;
 pub mod stream;
 pub mod train;
+pub mod travel;
 pub mod tune;
 
 pub use config::Config;

@@ -572,23 +572,35 @@ pub const CONTACT_MM: f64 = 10.0;
 pub const FLOOR_QUANTILE: f64 = 0.05;
 /// The shortest stance counted, seconds (a touch shorter than this is not a stance).
 pub const MIN_STANCE_S: f64 = 0.1;
-/// The point of each foot that bears the weight through a stance: the end
-/// of its `foot` bone, the ball (a toe's tip passes within a centimetre of
-/// the floor in a walking swing).
+/// The point of each foot that bears the weight through a stance in CMU's
+/// ASF skeletons: the end of its `foot` bone, the ball (a toe's tip passes
+/// within a centimetre of the floor in a walking swing). Any skeleton's are
+/// found by its profile: [`feet`].
 pub const FEET: [&str; 2] = ["lfoot", "rfoot"];
+
+/// The balls of the feet of skeleton `sk` (left, right), as forward
+/// kinematics names them: where its profile's toes start
+/// ([`cpg_mocap::profile`], the built-in profile it fits); CMU's ASF names
+/// ([`FEET`]) for a skeleton no built-in profile fits.
+pub fn feet(sk: &cpg_mocap::Skeleton) -> Vec<String> {
+    match cpg_mocap::profile::Profile::detect(sk).and_then(|p| p.resolve(sk).ok()) {
+        Some(r) => r.sides.iter().map(|s| s.ball.clone()).collect(),
+        None => FEET.iter().map(|f| (*f).to_owned()).collect(),
+    }
+}
 
 /// The largest slide of a foot on the ground in frames `from..to` of
 /// `pos` (world positions, mm, y up): a foot point is on the ground while
-/// within [`CONTACT_MM`] of its floor (`floors`, one per point of [`FEET`]);
+/// within [`CONTACT_MM`] of its floor (`floors`, one per point of `feet`);
 /// during each stance of at least [`MIN_STANCE_S`], its
 /// horizontal distance from where it landed. The worst over the points, mm
 /// (0 when none lands).
-pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, floors: &[f64]) -> f64 {
+pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, feet: &[String], floors: &[f64]) -> f64 {
     let n = pos.names.len();
     let to = to.min(pos.n_frames());
     let min_frames = ((MIN_STANCE_S * pos.sample_rate_hz).round() as usize).max(2);
     let mut worst: f64 = 0.0;
-    for (name, &floor) in FEET.iter().zip(floors) {
+    for (name, &floor) in feet.iter().zip(floors) {
         let Some(i) = pos.point_index(name) else { continue };
         let at = |k: usize| pos.points_mm[k * n + i];
         let mut k = from;
@@ -617,17 +629,17 @@ pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, floors:
 }
 
 /// `pos` (world positions, mm) carried by the travel its feet imply instead
-/// of its root's own: at each frame the lower point of [`FEET`] (above its
+/// of its root's own: at each frame the lower point of `feet` (above its
 /// floor in `floors`), when on the ground (within [`CONTACT_MM`]), stays
 /// where it is until the next frame; with neither foot on the ground (a
 /// run's flight) the figure keeps the last step's travel. The root's height
 /// and the figure's start are kept. [`foot_slide_mm`] of the result is the
 /// slide the legs cause whatever travel a generator learnt: one foot dragged
 /// or pushed while the other bears the weight.
-pub fn stance_led(pos: &cpg_mocap::Positions, floors: &[f64]) -> cpg_mocap::Positions {
+pub fn stance_led(pos: &cpg_mocap::Positions, feet: &[String], floors: &[f64]) -> cpg_mocap::Positions {
     let n = pos.names.len();
     let feet: Vec<(usize, f64)> =
-        FEET.iter().zip(floors).filter_map(|(name, &floor)| pos.point_index(name).map(|i| (i, floor))).collect();
+        feet.iter().zip(floors).filter_map(|(name, &floor)| pos.point_index(name).map(|i| (i, floor))).collect();
     // A point relative to the root's horizontal place (the root's own travel taken out).
     let root = pos.point_index("root");
     let rel = |k: usize, i: usize| {
@@ -657,10 +669,10 @@ pub fn stance_led(pos: &cpg_mocap::Positions, floors: &[f64]) -> cpg_mocap::Posi
     out
 }
 
-/// The floor of each point of [`FEET`]: the [`FLOOR_QUANTILE`]
+/// The floor of each point of `feet`: the [`FLOOR_QUANTILE`]
 /// of its heights over every frame of `positions` (recorded rhythm trials), mm.
-pub fn floors(positions: &[cpg_mocap::Positions]) -> Vec<f64> {
-    FEET.iter()
+pub fn floors(positions: &[cpg_mocap::Positions], feet: &[String]) -> Vec<f64> {
+    feet.iter()
         .map(|name| {
             let mut h: Vec<f64> = positions
                 .iter()
@@ -676,6 +688,10 @@ pub fn floors(positions: &[cpg_mocap::Positions]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn cmu_feet() -> Vec<String> {
+        FEET.iter().map(|f| (*f).to_owned()).collect()
+    }
 
     /// Two feet (and the root) over `frames`; `feet(k)` gives each foot's
     /// (x, y) relative to the root, which travels 7 mm a frame of its own
@@ -696,17 +712,17 @@ mod tests {
         // The left foot bears the weight and sweeps back 5 mm a frame; the
         // right swings forward above the ground: led by the feet, nothing slides.
         let step = walker(40, |k| [[100.0 - 5.0 * k as f64, 0.0], [-100.0 + 10.0 * k as f64, 50.0]]);
-        let led = stance_led(&step, &[0.0, 0.0]);
-        assert!(foot_slide_mm(&led, 0, 40, &[0.0, 0.0]) < 1e-9);
+        let led = stance_led(&step, &cmu_feet(), &[0.0, 0.0]);
+        assert!(foot_slide_mm(&led, 0, 40, &cmu_feet(), &[0.0, 0.0]) < 1e-9);
         assert!((led.points_mm[39 * 3][0] - 5.0 * 39.0).abs() < 1e-9, "the root travelled 195 mm");
         // A shuffle: both feet on the ground, the right (2 mm higher) pushed
         // forward 5 mm a frame while the left stays: the right slides 195 mm.
         let shuffle = walker(40, |k| [[0.0, 0.0], [5.0 * k as f64, 2.0]]);
-        let led = stance_led(&shuffle, &[0.0, 0.0]);
-        assert!((foot_slide_mm(&led, 0, 40, &[0.0, 0.0]) - 195.0).abs() < 1e-9);
+        let led = stance_led(&shuffle, &cmu_feet(), &[0.0, 0.0]);
+        assert!((foot_slide_mm(&led, 0, 40, &cmu_feet(), &[0.0, 0.0]) - 195.0).abs() < 1e-9);
         // In a flight the figure keeps its last step's travel.
         let flight = walker(20, |k| [[-3.0 * k as f64, if k < 10 { 0.0 } else { 80.0 }], [0.0, 80.0]]);
-        let led = stance_led(&flight, &[0.0, 0.0]);
+        let led = stance_led(&flight, &cmu_feet(), &[0.0, 0.0]);
         assert!((led.points_mm[19 * 3][0] - 3.0 * 19.0).abs() < 1e-9);
     }
 

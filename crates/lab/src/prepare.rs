@@ -276,10 +276,12 @@ pub fn read_recorded(c: &Config) -> Result<Recorded> {
 fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded> {
     use crate::retarget::{RetargetOptions, human_walk, retarget};
     let bvh = cpg_mocap::BvhOptions { length_unit_mm: c.data.bvh_unit_mm };
+    let given = r.profile.as_ref().map(cpg_mocap::profile::Profile::from_file).transpose()?;
     let mut trials = Vec::with_capacity(r.trials.len());
     for path in &r.trials {
         let rec = cpg_mocap::read_recording(path, c.data.skeleton.as_deref(), Some(r.trial_rate_hz), &bvh)?;
-        trials.push(rec.skeleton.forward_kinematics(&rec.motion)?);
+        let points = cpg_mocap::profile::Profile::for_skeleton(&rec.skeleton, given.as_ref())?;
+        trials.push((rec.skeleton.forward_kinematics(&rec.motion)?, points));
     }
     let human = human_walk(&trials)?;
     let robot = cpg_hoap2::Robot::hoap2()?;
@@ -461,7 +463,7 @@ fn posture(
 
 /// How far (mm) the mean frame of `motion` must rise for its lower foot to
 /// stand on the floor of `gaits` ([`crate::measure::floors`] of their
-/// [`crate::measure::FEET`]): the most any foot lies below its floor.
+/// [`crate::measure::feet`]): the most any foot lies below its floor.
 /// `None` without a gait or a foot point.
 fn posture_lift_mm(sk: &Skeleton, motion: &Motion, gaits: &[&Motion]) -> Result<Option<f64>> {
     if gaits.is_empty() {
@@ -473,8 +475,9 @@ fn posture_lift_mm(sk: &Skeleton, motion: &Motion, gaits: &[&Motion]) -> Result<
     let fk = |m: &Motion| sk.complete(m).and_then(|m| sk.forward_kinematics(&m));
     let pose = fk(&Motion::new(motion.channels().to_vec(), mean, motion.sample_rate_hz())?)?;
     let walked = gaits.iter().map(|m| fk(m)).collect::<std::result::Result<Vec<_>, _>>()?;
-    let floors = crate::measure::floors(&walked);
-    Ok(crate::measure::FEET
+    let feet = crate::measure::feet(sk);
+    let floors = crate::measure::floors(&walked, &feet);
+    Ok(feet
         .iter()
         .zip(&floors)
         .filter_map(|(name, floor)| pose.point_index(name).map(|i| floor - pose.points_mm[i][1]))
@@ -508,7 +511,12 @@ fn loops(
         let x = r.z.apply(m)?.values().to_vec();
         let t = m.n_frames();
         if d_sec.segments[k].stand {
-            let pose = posture(c, r, k, &x, recorded, skeleton, notes)?;
+            // A posture that is a frame of a rhythm is set once the rhythm's teacher is built.
+            let pose = if d_sec.segments[k].stand_from.is_some() {
+                vec![0.0; d]
+            } else {
+                posture(c, r, k, &x, recorded, skeleton, notes)?
+            };
             loops.push(pose);
             cycles.push(SegmentCycle {
                 label: label.clone(),
@@ -588,7 +596,8 @@ fn loops(
 fn teachers_of(c: &Config, labels: &[String], loops: &[Vec<f64>], d: usize, notes: &mut Vec<String>) -> Vec<Teacher> {
     let segs = &c.data.segments;
     let mut out = Vec::new();
-    for (i, s) in segs.iter().enumerate() {
+    for i in c.data.teacher_segments() {
+        let s = &segs[i];
         let Some(g) = &s.group else {
             out.push(Teacher {
                 label: labels[i].clone(),
@@ -598,9 +607,6 @@ fn teachers_of(c: &Config, labels: &[String], loops: &[Vec<f64>], d: usize, note
             });
             continue;
         };
-        if segs[..i].iter().any(|x| x.group.as_ref() == Some(g)) {
-            continue;
-        }
         let members: Vec<&[f64]> =
             segs.iter().zip(loops).filter(|(x, _)| x.group.as_ref() == Some(g)).map(|(_, l)| l.as_slice()).collect();
         let mut periods: Vec<usize> = members.iter().map(|l| l.len() / d).collect();
@@ -704,17 +710,48 @@ fn tempo_sequences(c: &Config, tp: &TempoSection, cycle: &[f64], d: usize) -> Re
     Ok((Sequences { warmup: train.clone(), train, nmse_validation }, teachers))
 }
 
+/// A standing posture that is a frame of a rhythm (`stand_from`): the
+/// teachers' indices and the frame (of the rhythm's cycle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Warp {
+    posture: usize,
+    rhythm: usize,
+    frame: usize,
+}
+
+/// How the training sequence passes between blocks besides the morphs: the
+/// time-warped starts and stops of postures that are frames of rhythms, and
+/// the rate channels (index, mean, std) whose values follow the pace.
+struct Blends<'a> {
+    warps: &'a [Warp],
+    rates: &'a [(usize, f64, f64)],
+}
+
+impl Blends<'_> {
+    /// Frame `frame` (normalised) with its rate channels at `pace` of their value.
+    fn paced(&self, frame: &mut [f64], pace: f64) {
+        for &(k, mean, std) in self.rates {
+            frame[k] = ((frame[k] * std + mean) * pace - mean) / std;
+        }
+    }
+}
+
 /// Segment blocks, repeated, with optional phase-continuous morphs between them.
-fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool) -> Result<Sequences> {
+fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool, blends: &Blends<'_>) -> Result<Sequences> {
     let d_sec = &c.data;
     let loops: Vec<&[f64]> = teachers.iter().map(|t| t.cycle.as_slice()).collect();
     let u = d_sec.controls.len();
     let v = c.training.validation_samples;
-    let n_seg = loops.len();
+    let order: Vec<usize> = d_sec.sequence.clone().unwrap_or_else(|| (0..loops.len()).collect());
+    if let Some(&k) = order.iter().find(|&&k| k >= loops.len()) {
+        return Err(c.error("data.sequence", format!("names teacher {k}; there are {}", loops.len())));
+    }
+    let n_seg = order.len();
     let spb = d_sec.samples_per_segment;
     let morph = (d_sec.morph_s * d_sec.rate_hz).round() as usize;
     let blocks = n_seg * d_sec.repeats;
-    let total = blocks * spb + (blocks - 1) * morph;
+    let longest = loops.iter().map(|l| l.len() / d).max().unwrap_or(0);
+    let total = blocks * spb + (blocks - 1) * (morph + if blends.warps.is_empty() { 0 } else { 2 * longest });
     if total > MAX_TRAINING_SAMPLES {
         return Err(Error::Bound(format!(
             "the training sequence would have {total} samples (segments × repeats × samples_per_segment + morphs); at most {MAX_TRAINING_SAMPLES}"
@@ -728,7 +765,7 @@ fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool) -> R
     // The segment and phase (in cycles) where the sequence stands.
     let mut last = (0usize, 0.0f64);
     for b in 0..blocks {
-        let i = b % n_seg;
+        let i = order[b % n_seg];
         let seg = &teachers[i];
         if morph == 0 {
             outs.extend(tile(loops[i], d, spb, 0));
@@ -748,7 +785,21 @@ fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool) -> R
             first_block = Some(Sequence { outputs: outs.clone(), controls: ctls.clone() });
         }
         if b + 1 < blocks && morph > 0 {
-            let j = (b + 1) % n_seg;
+            let j = order[(b + 1) % n_seg];
+            let warp = blends.warps.iter().find(|w| (w.posture, w.rhythm) == (i, j) || (w.posture, w.rhythm) == (j, i));
+            if let Some(w) = warp {
+                let before = outs.len() / d;
+                last = time_warp(w, i, &loops, d, morph, last.1, blends, &mut outs);
+                // The controls ramp by a cosine over `morph` steps from the transition's start
+                // (a stop may take longer: the new controls hold until it lands).
+                for k in 0..outs.len() / d - before {
+                    let wk = cosine(k as f64 / morph as f64);
+                    for (a, b) in seg.controls.iter().zip(&teachers[j].controls) {
+                        ctls.push((1.0 - wk) * a + wk * b);
+                    }
+                }
+                continue;
+            }
             let mut ph = last.1;
             for k in 0..morph {
                 let w = cosine(k as f64 / morph as f64);
@@ -782,6 +833,155 @@ fn block_sequences(c: &Config, teachers: &[Teacher], d: usize, orbit: bool) -> R
     let train = Sequence { outputs: outs, controls: ctls };
     let warmup = if orbit { first_block.unwrap_or_else(|| train.clone()) } else { train.clone() };
     Ok(Sequences { train, warmup, nmse_validation })
+}
+
+/// Each standing posture with `stand_from`: made the frame of its rhythm's
+/// teacher cycle where both feet are lowest (the highest of the two
+/// [`crate::measure::feet`] above its floor least; without a skeleton, the
+/// cycle's first frame), its rate channels at 0 (a posture does not travel);
+/// and the warps the training sequence makes between the two.
+fn stand_in_rhythms(
+    c: &Config,
+    r: &Read,
+    teachers: &mut [Teacher],
+    skeleton: Option<&Skeleton>,
+    recorded: &[Motion],
+    notes: &mut Vec<String>,
+) -> Result<Vec<Warp>> {
+    let segs = c.data.teacher_segments();
+    let d = r.channels.len();
+    let mut warps = Vec::new();
+    for (posture, &i) in segs.iter().enumerate() {
+        let Some(from) = &c.data.segments[i].stand_from else { continue };
+        let rhythm = segs
+            .iter()
+            .position(|&j| {
+                let s = &c.data.segments[j];
+                !s.stand && (s.group.as_ref() == Some(from) || r.labels[j] == *from || s.label.as_ref() == Some(from))
+            })
+            .ok_or_else(|| {
+                c.error(&format!("data.segments[{i}].stand_from"), format!("'{from}' is not a rhythm's name"))
+            })?;
+        let cycle = teachers[rhythm].cycle.clone();
+        let frame = match skeleton {
+            Some(sk) => double_support(c, r, sk, &cycle, recorded)?,
+            None => 0,
+        };
+        let mut pose = cycle[frame * d..(frame + 1) * d].to_vec();
+        for (k, v) in pose.iter_mut().enumerate() {
+            if r.channels[k].ends_with(cpg_reservoir::VELOCITY_SUFFIX) {
+                *v = -r.z.mean[k] / r.z.std[k];
+            }
+        }
+        teachers[posture].cycle = pose;
+        notes.push(format!(
+            "segment {}: the posture is frame {frame} of {from}'s cycle of {} frames (both feet lowest), and the training sequence starts and stops {from} there by its pace (time-warped, not blended)",
+            r.labels[i],
+            cycle.len() / d
+        ));
+        warps.push(Warp { posture, rhythm, frame });
+    }
+    Ok(warps)
+}
+
+/// The frame of `cycle` (normalised, `r`'s channels) where the higher of the
+/// two feet stands lowest above its floor (the floors of the recorded rhythms).
+fn double_support(c: &Config, r: &Read, sk: &Skeleton, cycle: &[f64], recorded: &[Motion]) -> Result<usize> {
+    let d = r.channels.len();
+    let n = cycle.len() / d;
+    let names: Vec<cpg_mocap::Channel> = r
+        .channels
+        .iter()
+        .map(|ch| {
+            let unit = ch.strip_suffix(cpg_reservoir::VELOCITY_SUFFIX).unwrap_or(ch);
+            cpg_mocap::Channel::parse(unit)
+                .ok_or_else(|| Error::name(ch, format!("'{ch}' is not a mocap channel (bone.dof)")))
+        })
+        .collect::<Result<_>>()?;
+    // In units, the travel left out (it does not change a foot's height).
+    let units: Vec<f64> = (0..n * d)
+        .map(|k| {
+            let ch = k % d;
+            if r.channels[ch].ends_with(cpg_reservoir::VELOCITY_SUFFIX) {
+                0.0
+            } else {
+                cycle[k] * r.z.std[ch] + r.z.mean[ch]
+            }
+        })
+        .collect();
+    let motion = sk.complete(&Motion::new(names, units, c.data.rate_hz)?)?;
+    let pos = sk.forward_kinematics(&motion)?;
+    let gaits: Vec<cpg_mocap::Positions> = recorded
+        .iter()
+        .zip(&c.data.segments)
+        .filter(|(_, s)| !s.stand)
+        .map(|(m, _)| sk.complete(m).and_then(|m| sk.forward_kinematics(&m)))
+        .collect::<std::result::Result<_, _>>()?;
+    let names = crate::measure::feet(sk);
+    let floors = crate::measure::floors(&gaits, &names);
+    let feet: Vec<(usize, f64)> =
+        names.iter().zip(&floors).filter_map(|(f, &floor)| pos.point_index(f).map(|i| (i, floor))).collect();
+    let higher = |k: usize| feet.iter().map(|&(i, floor)| pos.frame(k)[i][1] - floor).fold(f64::NEG_INFINITY, f64::max);
+    Ok((0..n).min_by(|&a, &b| higher(a).total_cmp(&higher(b))).unwrap_or(0))
+}
+
+/// The training sequence between a posture and the rhythm it is a frame of,
+/// time-warped (appended to `outs`, normalised), leaving teacher `from` at
+/// `phase` (in cycles): out of the posture the rhythm's pace grows from 0 to
+/// 1 by a cosine over `morph` steps, starting at the posture's frame; into
+/// it the pace falls by a cosine from wherever the rhythm is, over as long
+/// as it takes to end exactly on that frame (at least `morph` steps, less
+/// than `morph` plus two cycles). The rate channels follow the pace. Returns
+/// the teacher and phase (in cycles) where the sequence stands.
+#[allow(clippy::too_many_arguments)] // the sequence's state, passed through
+fn time_warp(
+    w: &Warp,
+    from: usize,
+    loops: &[&[f64]],
+    d: usize,
+    morph: usize,
+    phase: f64,
+    blends: &Blends<'_>,
+    outs: &mut Vec<f64>,
+) -> (usize, f64) {
+    let cycle = loops[w.rhythm];
+    let p = (cycle.len() / d) as f64;
+    let target = w.frame as f64 / p;
+    let mut frame = Vec::with_capacity(d);
+    let mut emit = |ph: f64, pace: f64, outs: &mut Vec<f64>| {
+        frame.clear();
+        blend_at(cycle, cycle, d, ph, 0.0, &mut frame);
+        blends.paced(&mut frame, pace);
+        outs.extend_from_slice(&frame);
+    };
+    let rising = |k: usize| cosine(k as f64 / morph as f64);
+    if from == w.posture {
+        let mut ph = target;
+        for k in 0..morph {
+            emit(ph, rising(k), outs);
+            ph += rising(k) / p;
+        }
+        return (w.rhythm, ph);
+    }
+    // Into the posture: from where the sequence is, whatever its phase, the pace
+    // falls by a cosine over as many steps as it takes to cover the distance to the
+    // posture's frame (at least `morph` steps: the next such frame a slow stop can reach).
+    let mut dist = (target - phase).rem_euclid(1.0) * p;
+    if 2.0 * dist < morph as f64 {
+        dist += p;
+    }
+    let steps = (2.0 * dist).round().max(1.0) as usize;
+    let falling = |k: usize| 1.0 - cosine(k as f64 / steps as f64);
+    // The sum of the pace over the ramp is the distance (in frames) up to rounding: scaled to land exactly.
+    let covered: f64 = (0..steps).map(falling).sum();
+    let scale = if covered > 0.0 { dist / covered } else { 1.0 };
+    let mut ph = phase;
+    for k in 0..steps {
+        let r = falling(k);
+        emit(ph, r, outs);
+        ph += scale * r / p;
+    }
+    (w.posture, 0.0)
 }
 
 /// The segments as recorded, the last `validation_samples` validating.
@@ -844,8 +1044,14 @@ pub fn prepare_recorded(c: &Config, rec: Recorded) -> Result<Prepared> {
         let (seqs, teachers) = match &c.data.tempo {
             Some(tp) => tempo_sequences(c, tp, &loops[0], d)?,
             None => {
-                let teachers = teachers_of(c, &r.labels, &loops, d, &mut notes);
-                (block_sequences(c, &teachers, d, orbit)?, teachers)
+                let mut teachers = teachers_of(c, &r.labels, &loops, d, &mut notes);
+                let skeleton = rec.skeleton.as_ref().map(|s| &s.0);
+                let warps = stand_in_rhythms(c, &r, &mut teachers, skeleton, &rec.parts, &mut notes)?;
+                let rates: Vec<(usize, f64, f64)> = (0..d)
+                    .filter(|&k| r.channels[k].ends_with(cpg_reservoir::VELOCITY_SUFFIX))
+                    .map(|k| (k, r.z.mean[k], r.z.std[k]))
+                    .collect();
+                (block_sequences(c, &teachers, d, orbit, &Blends { warps: &warps, rates: &rates })?, teachers)
             }
         };
         (seqs, cycles, teachers)

@@ -9,6 +9,7 @@ use cpg_hoap2::Robot;
 use cpg_hoap2::physics::MassModel;
 use cpg_hoap2::walk::{WalkParams, WalkPlan};
 use cpg_mocap::Positions;
+use cpg_mocap::profile::{Resolved, SidePoints};
 
 use crate::{Error, Result};
 
@@ -81,52 +82,119 @@ fn bend_deg(a: V3, b: V3, c: V3) -> f64 {
 
 struct Trial<'a> {
     p: &'a Positions,
-    idx: std::collections::BTreeMap<&'static str, usize>,
     up: V3,
 }
 
 impl Trial<'_> {
-    fn at(&self, f: usize, name: &str) -> V3 {
+    fn at(&self, f: usize, i: usize) -> V3 {
         let n = self.p.names.len();
-        self.p.points_mm[f * n + self.idx[name]].map(|v| v / 1000.0)
+        self.p.points_mm[f * n + i].map(|v| v / 1000.0)
     }
 }
 
-const POINTS: [&str; 13] = [
-    "root",
-    "lhipjoint",
-    "lfemur",
-    "ltibia",
-    "lfoot",
-    "rhipjoint",
-    "rfemur",
-    "rtibia",
-    "rfoot",
-    "lclavicle",
-    "lhumerus",
-    "lradius",
-    "thorax",
-];
-const POINTS_R: [&str; 3] = ["rclavicle", "rhumerus", "rradius"];
+/// One side's joints as indices of a trial's points.
+#[derive(Clone, Copy)]
+struct Side {
+    hip: usize,
+    knee: usize,
+    ankle: usize,
+    ball: usize,
+    shoulder: usize,
+    elbow: usize,
+    wrist: usize,
+}
+
+/// The points a walk is measured by, found in a trial through its skeleton's profile.
+struct Points {
+    root: usize,
+    sides: [Side; 2],
+}
+
+impl Points {
+    fn find(p: &Positions, r: &Resolved, trial: usize) -> Result<Points> {
+        let at = |name: &str| {
+            p.point_index(name).ok_or_else(|| {
+                Error::name(
+                    name,
+                    format!("trial {trial}: the skeleton has no point '{name}' (profile '{}')", r.profile),
+                )
+            })
+        };
+        let side = |s: &SidePoints| -> Result<Side> {
+            Ok(Side {
+                hip: at(&s.hip)?,
+                knee: at(&s.knee)?,
+                ankle: at(&s.ankle)?,
+                ball: at(&s.ball)?,
+                shoulder: at(&s.shoulder)?,
+                elbow: at(&s.elbow)?,
+                wrist: at(&s.wrist)?,
+            })
+        };
+        Ok(Points { root: at(&r.pelvis)?, sides: [side(&r.sides[0])?, side(&r.sides[1])?] })
+    }
+}
 
 /// Stance (on the ground) per frame of one foot: the ankle or the ball low and nearly still.
-fn stance(t: &Trial<'_>, ankle: &str, ball: &str) -> Vec<bool> {
+fn stance(t: &Trial<'_>, ankle: usize, ball: usize) -> Vec<bool> {
     let n = t.p.n_frames();
     let dt = 1.0 / t.p.sample_rate_hz;
-    let height = |name: &str| (0..n).map(|f| dot(t.at(f, name), t.up)).collect::<Vec<f64>>();
+    let height = |i: usize| (0..n).map(|f| dot(t.at(f, i), t.up)).collect::<Vec<f64>>();
     let (ha, hb) = (height(ankle), height(ball));
-    let min = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
-    let (ma, mb) = (min(&ha), min(&hb));
-    let speed = |name: &str, f: usize| {
-        let (a, b) = (t.at(f.saturating_sub(1), name), t.at((f + 1).min(n - 1), name));
+    let window = (FLOOR_WINDOW_S / dt).round() as usize;
+    let (ma, mb) = (floor(&ha, window), floor(&hb, window));
+    let speed = |i: usize, f: usize| {
+        let (a, b) = (t.at(f.saturating_sub(1), i), t.at((f + 1).min(n - 1), i));
         let d = sub(b, a);
         let vert = dot(d, t.up);
         ((dot(d, d) - vert * vert).max(0.0)).sqrt() / (dt * ((f + 1).min(n - 1) - f.saturating_sub(1)) as f64)
     };
     (0..n)
-        .map(|f| (ha[f] - ma < 0.03 && speed(ankle, f) < 0.5) || (hb[f] - mb < 0.03 && speed(ball, f) < 0.5))
+        .map(|f| {
+            (ha[f] - ma[f] < CONTACT_M && speed(ankle, f) < 0.5) || (hb[f] - mb[f] < CONTACT_M && speed(ball, f) < 0.5)
+        })
         .collect()
 }
+
+/// A foot point within this height of its floor may be on the ground, m.
+const CONTACT_M: f64 = 0.03;
+/// Half the window over which a drifting floor is found, s: about half a
+/// walking stride, so that every window holds part of the foot's stance.
+const FLOOR_WINDOW_S: f64 = 0.6;
+
+/// The floor under a foot point whose heights are `h`, per frame: its lowest
+/// height over the trial, or, where the floor the feet find drifts more than
+/// [`CONTACT_M`] from that (a capture volume's floor calibrated off level, or
+/// a drifting marker set), its lowest height within `window` frames each side.
+fn floor(h: &[f64], window: usize) -> Vec<f64> {
+    let lowest = h.iter().cloned().fold(f64::INFINITY, f64::min);
+    let local: Vec<f64> = (0..h.len())
+        .map(|f| {
+            h[f.saturating_sub(window)..(f + window + 1).min(h.len())].iter().cloned().fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    if local.iter().all(|&l| l - lowest <= CONTACT_M) { vec![lowest; h.len()] } else { local }
+}
+
+/// The first frame of the recording proper: a recording that opens on a
+/// calibration pose (CMU's BVH conversions open on a T-pose) jumps from it
+/// to the motion faster than any body part moves, so frames before a jump of
+/// any point faster than [`JUMP_M_S`] within the first second are left out.
+fn settled(p: &Positions) -> usize {
+    let (n, d) = (p.n_frames(), p.names.len());
+    let horizon = (p.sample_rate_hz.round() as usize).min(n.saturating_sub(2));
+    let step_m = JUMP_M_S / p.sample_rate_hz;
+    let jumps = |f: usize| {
+        (0..d).any(|i| {
+            let (a, b) = (p.points_mm[f * d + i], p.points_mm[(f + 1) * d + i]);
+            norm(sub(b, a)) / 1000.0 > step_m
+        })
+    };
+    (0..horizon).rev().find(|&f| jumps(f)).map_or(0, |f| f + 1)
+}
+
+/// Faster than any body part moves, m/s (a sprinter's foot peaks near 20).
+const JUMP_M_S: f64 = 30.0;
 
 /// Frames where `on` turns true (touch-downs), each after at least `min_off` frames off.
 fn onsets(on: &[bool], min_off: usize) -> Vec<usize> {
@@ -159,34 +227,40 @@ struct Tally {
     cycles: Vec<(String, Vec<Vec<f64>>)>,
 }
 
-/// Measures the walk of the trials' forward kinematics (y up, as CMU's skeletons are).
-pub fn human_walk(trials: &[Positions]) -> Result<HumanWalk> {
+/// Measures the walk of the trials' forward kinematics (y up, as CMU's
+/// skeletons are), each with its skeleton's profile
+/// ([`cpg_mocap::profile`]: which points are the hips, knees, ankles, …).
+pub fn human_walk(trials: &[(Positions, Resolved)]) -> Result<HumanWalk> {
     let mut tally = Tally::default();
-    for (k, p) in trials.iter().enumerate() {
-        tally.trial(k, p)?;
+    for (k, (p, r)) in trials.iter().enumerate() {
+        tally.trial(k, p, r)?;
     }
     tally.finish()
 }
 
 impl Tally {
     /// Trial `k`: each foot's strides and swings, and the joint cycles over each left stride.
-    fn trial(&mut self, k: usize, p: &Positions) -> Result<()> {
-        let mut idx = std::collections::BTreeMap::new();
-        for name in POINTS.iter().chain(&POINTS_R) {
-            let i = p.point_index(name).ok_or_else(|| {
-                Error::name(
-                    name,
-                    format!("trial {}: the skeleton has no point '{name}' (a CMU skeleton is expected)", k + 1),
-                )
-            })?;
-            idx.insert(*name, i);
-        }
+    fn trial(&mut self, k: usize, p: &Positions, r: &Resolved) -> Result<()> {
+        let pts = Points::find(p, r, k + 1)?;
+        let first = settled(p);
+        let owned;
+        let p = if first == 0 {
+            p
+        } else {
+            let d = p.names.len();
+            owned = Positions {
+                names: p.names.clone(),
+                points_mm: p.points_mm[first * d..].to_vec(),
+                sample_rate_hz: p.sample_rate_hz,
+            };
+            &owned
+        };
         let n = p.n_frames();
         if n < 3 || p.sample_rate_hz.is_nan() || p.sample_rate_hz <= 0.0 {
             return Err(Error::Unusable(format!("trial {}: {n} frames at {} Hz", k + 1, p.sample_rate_hz)));
         }
         let up = [0.0, 1.0, 0.0];
-        let root_k = idx["root"];
+        let root_k = pts.root;
         let root = |f: usize| p.points_mm[f * p.names.len() + root_k].map(|v| v / 1000.0);
         let travel = sub(root(n - 1), root(0));
         let flat = [travel[0], 0.0, travel[2]];
@@ -195,12 +269,11 @@ impl Tally {
             return Err(Error::Unusable(format!("trial {}: the body travels {len:.2} m; not a walk", k + 1)));
         }
         let forward = flat.map(|v| v / len);
-        let t = Trial { p, idx, up };
+        let t = Trial { p, up };
         let dt = 1.0 / p.sample_rate_hz;
         let min_off = (0.2 / dt) as usize;
-        let feet = [("ltibia", "lfoot", "lhipjoint", "lfemur"), ("rtibia", "rfoot", "rhipjoint", "rfemur")];
-        let on: Vec<Vec<bool>> = feet.iter().map(|(a, b, _, _)| stance(&t, a, b)).collect();
-        for (s, (ankle, _, hip, knee)) in feet.iter().enumerate() {
+        let on: Vec<Vec<bool>> = pts.sides.iter().map(|x| stance(&t, x.ankle, x.ball)).collect();
+        for (s, &Side { ankle, hip, knee, .. }) in pts.sides.iter().enumerate() {
             let c = &on[s];
             let strikes = onsets(c, min_off);
             self.leg.push(
@@ -220,13 +293,13 @@ impl Tally {
                 self.swing(&t, ankle, c, (a, b), forward);
             }
         }
-        self.joint_cycles(&t, &onsets(&on[0], min_off), forward);
+        self.joint_cycles(&t, &pts, &onsets(&on[0], min_off), forward);
         Ok(())
     }
 
     /// The swing of `ankle` in the stride `a..b` (the last lift-off before b):
     /// its lift and the profiles of its height and progress.
-    fn swing(&mut self, t: &Trial<'_>, ankle: &str, c: &[bool], (a, b): (usize, usize), forward: V3) {
+    fn swing(&mut self, t: &Trial<'_>, ankle: usize, c: &[bool], (a, b): (usize, usize), forward: V3) {
         let up = t.up;
         let Some(off) = (a..b).rev().find(|&f| c[f]) else { return };
         let swing: Vec<usize> = (off + 1..=b).collect();
@@ -257,7 +330,7 @@ impl Tally {
     }
 
     /// Every joint's cycle over each stride between the left touch-downs `strikes`.
-    fn joint_cycles(&mut self, t: &Trial<'_>, strikes: &[usize], forward: V3) {
+    fn joint_cycles(&mut self, t: &Trial<'_>, pts: &Points, strikes: &[usize], forward: V3) {
         let up = t.up;
         let cycles = &mut self.cycles;
         for w in strikes.windows(2) {
@@ -266,10 +339,9 @@ impl Tally {
                 Some((_, list)) => list.push(v),
                 None => cycles.push((name, vec![v])),
             };
-            for (side, hip, knee, ankle, ball, shoulder, elbow, wrist) in [
-                ("l", "lhipjoint", "lfemur", "ltibia", "lfoot", "lclavicle", "lhumerus", "lradius"),
-                ("r", "rhipjoint", "rfemur", "rtibia", "rfoot", "rclavicle", "rhumerus", "rradius"),
-            ] {
+            for (side, &Side { hip, knee, ankle, ball, shoulder, elbow, wrist }) in
+                ["l", "r"].into_iter().zip(&pts.sides)
+            {
                 let series = |g: &dyn Fn(usize) -> f64| -> Vec<f64> {
                     resample(&(a..=b).map(g).collect::<Vec<_>>(), CYCLE_SAMPLES + 1)[..CYCLE_SAMPLES].to_vec()
                 };

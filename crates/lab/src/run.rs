@@ -162,6 +162,7 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
         let mut y = free_runs_on(&[spec], opts.threads)?.pop().unwrap_or_else(|| Ok(Vec::new()))?;
         cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
         cpg_reservoir::integrate_in_place(&m.outputs, &mut y, rate_hz);
+        crate::travel::feet_led(m, &mut y)?;
         y
     } else {
         // One thread, step by step (the same bits as a batched run, in units:
@@ -169,6 +170,7 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
         // The thread's watch, if it has one (cpg_reservoir::watch), sees the steps as a batched run's would.
         let cancel = opts.cancel.unwrap_or(&NEVER);
         let watch = cpg_reservoir::watch::current();
+        let mut travel = crate::travel::FeetTravel::for_model(m)?;
         let mut g = Generator::new(m);
         let mut u = vec![0.0; m.controls.len()];
         let mut y = Vec::with_capacity(steps * d);
@@ -183,6 +185,10 @@ pub fn generate(m: &TrainedCpg, controls: &ControlSchedule, steps: usize, opts: 
             }
             controls.fill(k, rate_hz, &mut u);
             y.extend_from_slice(g.step(&u)?);
+            if let Some(t) = travel.as_mut() {
+                let n = y.len();
+                t.apply(&mut y[n - d..]);
+            }
         }
         y
     };

@@ -60,6 +60,7 @@ pub fn model_scene(
     let mut y = free_run(m, controls, n_steps, None)?;
     cpg_reservoir::to_units_in_place(&m.outputs, &mut y);
     cpg_reservoir::integrate_in_place(&m.outputs, &mut y, m.provenance.sample_rate_hz);
+    crate::travel::feet_led(m, &mut y)?;
     run_scene(title, m, controls, 0, &y, robot)
 }
 

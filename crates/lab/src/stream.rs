@@ -43,6 +43,8 @@ pub struct Ticker {
     model_steps: u64,
     tick: u64,
     joints: Option<Joints>,
+    /// The figure's travel carried by its feet (a model that has one).
+    travel: Option<crate::travel::FeetTravel>,
 }
 
 impl Ticker {
@@ -84,6 +86,7 @@ impl Ticker {
             model_steps: 0,
             tick: 0,
             joints,
+            travel: crate::travel::FeetTravel::for_model(m)?,
         })
     }
 
@@ -116,6 +119,9 @@ impl Ticker {
     pub fn tick(&mut self, controls: &[f64]) -> Result<&[f64]> {
         if self.model_steps == 0 {
             self.current.copy_from_slice(self.g.step(controls)?);
+            if let Some(t) = self.travel.as_mut() {
+                t.apply(&mut self.current);
+            }
             self.model_steps = 1;
         }
         // This tick lies between outputs i and i + 1 of the model (output i is that of its (i + 1)-th step).
@@ -124,6 +130,9 @@ impl Ticker {
         while (self.model_steps as f64) < i + 2.0 {
             self.previous.copy_from_slice(&self.current);
             self.current.copy_from_slice(self.g.step(controls)?);
+            if let Some(t) = self.travel.as_mut() {
+                t.apply(&mut self.current);
+            }
             self.model_steps += 1;
         }
         let frac = model_pos - i;

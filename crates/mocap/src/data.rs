@@ -18,14 +18,17 @@ pub enum Subject {
     S35,
     /// Subject 86: long multi-activity sequences.
     S86,
+    /// Other people (CMU subjects 07, 09 and 16) in BVH: walks and a run.
+    OtherBvh,
 }
 
 impl Subject {
-    /// The directory name under `data/`: `cmu35`, `cmu86`.
+    /// The directory name under `data/`: `cmu35`, `cmu86`, `cmu-bvh`.
     pub fn dir_name(self) -> &'static str {
         match self {
             Subject::S35 => "cmu35",
             Subject::S86 => "cmu86",
+            Subject::OtherBvh => "cmu-bvh",
         }
     }
 }

@@ -94,12 +94,34 @@ impl Positions {
     }
 }
 
-impl Skeleton {
-    /// Computes world positions (mm) of the root and every bone end for each frame.
-    ///
-    /// The motion must carry every DOF of the skeleton.
-    pub fn forward_kinematics(&self, motion: &Motion) -> Result<Positions> {
-        let find = |bone: &str, dof: Dof| motion.channels().iter().position(|c| c.bone == bone && c.dof == dof);
+/// Forward kinematics of one skeleton for frames given one at a time, set
+/// up once (which column of a frame drives which degree of freedom, the
+/// bones' frames and directions): [`Kinematics::frame`] allocates nothing,
+/// for a loop that poses a figure at every tick. The same arithmetic as
+/// [`Skeleton::forward_kinematics`], bit for bit.
+#[derive(Debug, Clone)]
+pub struct Kinematics {
+    root_cols: Vec<(Dof, usize)>,
+    bone_cols: Vec<Vec<(Dof, usize)>>,
+    scale: f64,
+    root_position: [f64; 3],
+    c_root: M3,
+    frames_c: Vec<(M3, M3)>,
+    unit_dirs: Vec<[f64; 3]>,
+    lengths: Vec<f64>,
+    parents: Vec<Option<usize>>,
+    order: Vec<usize>,
+    names: Vec<String>,
+    world: Vec<M3>,
+    ends: Vec<[f64; 3]>,
+    points: Vec<[f64; 3]>,
+}
+
+impl Kinematics {
+    /// Kinematics of `skeleton` for frames whose columns are `channels`
+    /// (every degree of freedom of the skeleton must be among them).
+    pub fn new(skeleton: &Skeleton, channels: &[crate::Channel]) -> Result<Kinematics> {
+        let find = |bone: &str, dof: Dof| channels.iter().position(|c| c.bone == bone && c.dof == dof);
         let mut missing = Vec::new();
         let mut cols_of = |bone: &str, dofs: &[Dof]| -> Vec<(Dof, usize)> {
             dofs.iter()
@@ -112,17 +134,15 @@ impl Skeleton {
                 })
                 .collect()
         };
-        let root_cols = cols_of("root", &self.root.order);
-        let bone_cols: Vec<Vec<(Dof, usize)>> = self.bones.iter().map(|b| cols_of(&b.name, &b.dofs)).collect();
+        let root_cols = cols_of("root", &skeleton.root.order);
+        let bone_cols: Vec<Vec<(Dof, usize)>> = skeleton.bones.iter().map(|b| cols_of(&b.name, &b.dofs)).collect();
         if !missing.is_empty() {
             return Err(Error::SkeletonMismatch {
-                skeleton: self.name.clone(),
+                skeleton: skeleton.name.clone(),
                 detail: format!("motion lacks channels {}", missing.join(", ")),
             });
         }
-        let scale = self.mm_per_unit();
-        let c_root = axis_frame(self.root.orientation_deg, self.root.axis);
-        let frames_c: Vec<(M3, M3)> = self
+        let frames_c = skeleton
             .bones
             .iter()
             .map(|b| {
@@ -132,7 +152,7 @@ impl Skeleton {
             .collect();
         // ASF directions are rounded to six digits: normalise them so that
         // every bone keeps exactly its declared length.
-        let unit_dirs: Vec<[f64; 3]> = self
+        let unit_dirs = skeleton
             .bones
             .iter()
             .map(|b| {
@@ -140,46 +160,82 @@ impl Skeleton {
                 if n > 0.0 { b.direction.map(|x| x / n) } else { [0.0; 3] }
             })
             .collect();
-        let order = self.topological_order();
-        let n_pts = self.bones.len() + 1;
+        let n = skeleton.bones.len();
         let mut names = vec!["root".to_owned()];
-        names.extend(self.bones.iter().map(|b| b.name.clone()));
-        let mut points = Vec::with_capacity(motion.n_frames() * n_pts);
-        let mut world = vec![I3; self.bones.len()];
-        let mut ends = vec![[0.0; 3]; self.bones.len()];
-        for f in 0..motion.n_frames() {
-            let row = motion.frame(f);
-            let mut pos = self.root.position;
+        names.extend(skeleton.bones.iter().map(|b| b.name.clone()));
+        Ok(Kinematics {
+            root_cols,
+            bone_cols,
+            scale: skeleton.mm_per_unit(),
+            root_position: skeleton.root.position,
+            c_root: axis_frame(skeleton.root.orientation_deg, skeleton.root.axis),
+            frames_c,
+            unit_dirs,
+            lengths: skeleton.bones.iter().map(|b| b.length).collect(),
+            parents: skeleton.bones.iter().map(|b| b.parent).collect(),
+            order: skeleton.topological_order(),
+            names,
+            world: vec![I3; n],
+            ends: vec![[0.0; 3]; n],
+            points: vec![[0.0; 3]; n + 1],
+        })
+    }
+
+    /// The points' names: `root`, then the bones in ASF order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// World positions (mm) of the root and every bone end for one frame
+    /// (`row`: one value per column of the channels given to [`Kinematics::new`]).
+    pub fn frame(&mut self, row: &[f64]) -> &[[f64; 3]] {
+        let mut pos = self.root_position;
+        let mut m = I3;
+        for &(d, k) in &self.root_cols {
+            if d.is_rotation() {
+                m = mul(&rot(d.axis(), row[k]), &m);
+            } else {
+                pos[d.axis()] += row[k];
+            }
+        }
+        let g_root = mul(&mul(&self.c_root, &m), &transpose(&self.c_root));
+        for &b in &self.order {
             let mut m = I3;
-            for &(d, k) in &root_cols {
+            for &(d, k) in &self.bone_cols[b] {
                 if d.is_rotation() {
                     m = mul(&rot(d.axis(), row[k]), &m);
-                } else {
-                    pos[d.axis()] += row[k];
                 }
             }
-            let g_root = mul(&mul(&c_root, &m), &transpose(&c_root));
-            for &b in &order {
-                let bone = &self.bones[b];
-                let mut m = I3;
-                for &(d, k) in &bone_cols[b] {
-                    if d.is_rotation() {
-                        m = mul(&rot(d.axis(), row[k]), &m);
-                    }
-                }
-                let (c, ct) = &frames_c[b];
-                let local = mul(&mul(c, &m), ct);
-                let (parent_rot, start) = match bone.parent {
-                    Some(p) => (world[p], ends[p]),
-                    None => (g_root, pos),
-                };
-                world[b] = mul(&parent_rot, &local);
-                let off = apply(&world[b], unit_dirs[b].map(|x| x * bone.length));
-                ends[b] = [start[0] + off[0], start[1] + off[1], start[2] + off[2]];
-            }
-            points.push(pos.map(|x| x * scale));
-            points.extend(ends.iter().map(|e| e.map(|x| x * scale)));
+            let (c, ct) = &self.frames_c[b];
+            let local = mul(&mul(c, &m), ct);
+            let (parent_rot, start) = match self.parents[b] {
+                Some(p) => (self.world[p], self.ends[p]),
+                None => (g_root, pos),
+            };
+            self.world[b] = mul(&parent_rot, &local);
+            let off = apply(&self.world[b], self.unit_dirs[b].map(|x| x * self.lengths[b]));
+            self.ends[b] = [start[0] + off[0], start[1] + off[1], start[2] + off[2]];
         }
-        Ok(Positions { names, points_mm: points, sample_rate_hz: motion.sample_rate_hz() })
+        let scale = self.scale;
+        self.points[0] = pos.map(|x| x * scale);
+        for (p, e) in self.points[1..].iter_mut().zip(&self.ends) {
+            *p = e.map(|x| x * scale);
+        }
+        &self.points
+    }
+}
+
+impl Skeleton {
+    /// Computes world positions (mm) of the root and every bone end for each frame.
+    ///
+    /// The motion must carry every DOF of the skeleton.
+    pub fn forward_kinematics(&self, motion: &Motion) -> Result<Positions> {
+        let mut k = Kinematics::new(self, motion.channels())?;
+        let n_pts = self.bones.len() + 1;
+        let mut points = Vec::with_capacity(motion.n_frames() * n_pts);
+        for f in 0..motion.n_frames() {
+            points.extend_from_slice(k.frame(motion.frame(f)));
+        }
+        Ok(Positions { names: k.names, points_mm: points, sample_rate_hz: motion.sample_rate_hz() })
     }
 }

@@ -31,12 +31,13 @@ mod ground;
 mod kinematics;
 mod lex;
 mod motion;
+pub mod profile;
 
 pub use amc::{parse_amc, write_amc};
 pub use asf::{MAX_ASF_BONES, parse_asf, write_asf};
 pub use bvh::{Bvh, BvhOptions, parse_bvh, write_bvh};
 pub use error::{Error, ParseError, ParseErrorKind, Result};
-pub use kinematics::Positions;
+pub use kinematics::{Kinematics, Positions};
 pub use lex::MAX_MAGNITUDE;
 pub use motion::{Channel, Motion, ZScore};
 

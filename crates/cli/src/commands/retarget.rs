@@ -12,6 +12,7 @@ use crate::output::{Destination, check_writable, write_output};
 pub struct Retarget<'a> {
     pub motions: &'a [PathBuf],
     pub skeleton: Option<&'a Path>,
+    pub profile: Option<&'a Path>,
     pub options: RetargetOptions,
     pub output: &'a Path,
     pub report: Option<&'a Path>,
@@ -25,6 +26,7 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
         check_writable(r)?;
     }
     anyhow::ensure!(!a.motions.is_empty(), "give at least one walking trial (--motion)");
+    let given = a.profile.map(cpg_mocap::profile::Profile::from_file).transpose()?;
     let mut trials = Vec::with_capacity(a.motions.len());
     for m in a.motions {
         let r = cpg_mocap::read_recording(
@@ -33,7 +35,9 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
             a.rate_hz,
             &cpg_mocap::BvhOptions { length_unit_mm: a.bvh_unit_mm },
         )?;
-        trials.push(r.skeleton.forward_kinematics(&r.motion).with_context(|| format!("{}", m.display()))?);
+        let points = cpg_mocap::profile::Profile::for_skeleton(&r.skeleton, given.as_ref())
+            .with_context(|| format!("{}", m.display()))?;
+        trials.push((r.skeleton.forward_kinematics(&r.motion).with_context(|| format!("{}", m.display()))?, points));
     }
     let human = human_walk(&trials)?;
     let robot = Robot::hoap2()?;

@@ -237,16 +237,22 @@ fn validation_conditions(c: &Config) -> Vec<Condition> {
             // Stays as `prepare` lays them out: a ramp before each stay whose
             // controls differ from the previous ones (the first from the
             // warm-up's, which end on the first segment's or the tempo's).
-            let n_stays = o.sequence.as_ref().map_or_else(
-                || o.rates.as_ref().map_or(c.data.segments.len().max(tempo_teachers(c)), Vec::len),
-                Vec::len,
-            );
+            // The sequence names teachers, as training reads it: a group of trials is one.
+            let teachers = c.data.teacher_segments();
+            let n_stays = o
+                .sequence
+                .as_ref()
+                .map_or_else(|| o.rates.as_ref().map_or(teachers.len().max(tempo_teachers(c)), Vec::len), Vec::len);
             let sequence: Vec<usize> = o.sequence.clone().unwrap_or_else(|| (0..n_stays).collect());
             let setting = |k: usize| -> Vec<f64> {
                 match (&o.rates, &c.data.tempo) {
                     (Some(r), _) => vec![r.get(k).copied().unwrap_or(f64::NAN)],
                     (None, Some(tp)) => vec![tp.teachers.get(k).copied().unwrap_or(f64::NAN)],
-                    (None, None) => c.data.segments.get(k).map(|s| s.controls.clone()).unwrap_or_default(),
+                    (None, None) => teachers
+                        .get(k)
+                        .and_then(|&i| c.data.segments.get(i))
+                        .map(|s| s.controls.clone())
+                        .unwrap_or_default(),
                 }
             };
             let mut clock = 0.0;

@@ -121,6 +121,7 @@ pub fn body(s: &mut Section, rs: &[&BodyResult], ctx: &Context) {
     for (k, g) in r.held_out.iter().enumerate() {
         per_channel(s, r, k, g);
     }
+    held_out_cycles(s, r);
     validation_curves(s, rs, "fig_validation_whole_body");
 }
 
@@ -185,9 +186,12 @@ fn trainers(s: &mut Section, rs: &[&BodyResult]) {
 
 fn per_seed(s: &mut Section, r: &BodyResult) {
     let mut head = vec!["seed".to_owned(), "penalty".to_owned(), "standing: distance, swing, travel".to_owned()];
-    head.extend(
-        r.held_out.iter().map(|g| format!("{}: period / held-out, channels within, error / spread", g.teacher)),
-    );
+    head.extend(r.held_out.iter().map(|g| {
+        format!(
+            "{}: period (frames; allowed {:.1}–{:.1}), channels within, error / spread",
+            g.teacher, g.period_bounds.0, g.period_bounds.1
+        )
+    }));
     head.push("switches: settled (strides); largest step / the data's; foot slide".into());
     head.push("passed".into());
     let rows: Vec<Vec<String>> = r
@@ -208,7 +212,7 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
             for (g, h) in sd.gaits.iter().zip(&r.held_out) {
                 v.push(format!(
                     "{}, {} of {}, {:.2}° / {:.2}°{}",
-                    g.period_steps.map_or("no rhythm".into(), |p| format!("{:.3}", p / h.period_frames)),
+                    g.period_steps.map_or("no rhythm".into(), |p| format!("{p:.1}")),
                     g.amplitudes_within,
                     g.amplitude.len(),
                     g.error,
@@ -246,24 +250,27 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
 fn per_channel(s: &mut Section, r: &BodyResult, k: usize, g: &HeldOutGait) {
     let Some(first) = r.seeds.first() else { return };
     let Some(made) = first.gaits.get(k) else { return };
+    let mark = |ok: bool| if ok { "" } else { " ✗" };
     let rows: Vec<Vec<String>> = r
         .channels
         .iter()
         .enumerate()
         .map(|(c, name)| {
-            let (lo, hi) = g.amplitude_range[c];
-            let moving = g.amplitude[c] >= STILL_SWING;
+            let own = g.trials.iter().map(|t| t.amplitude[c]);
+            let (lo, hi) = own.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+            let (blo, bhi) = g.amplitude_bounds[c];
+            let teacher_ok = g.teacher_channel_ok.get(c).copied().unwrap_or(false);
             vec![
                 format!("`{name}`"),
-                if moving { format!("{:.2} ({:.2}–{:.2})", g.amplitude[c], lo, hi) } else { "still".into() },
-                format!("{:.2}", g.teacher_amplitude.get(c).copied().unwrap_or(f64::NAN)),
-                format!("{:.2}", made.amplitude[c]),
-                if moving {
-                    let q = made.amplitude[c] / g.amplitude[c];
-                    format!("{q:.2}{}", if (q - 1.0).abs() < AMPLITUDE_TOLERANCE { "" } else { " ✗" })
-                } else {
-                    (if made.amplitude[c] < STILL_SWING { "still" } else { "moves ✗" }).to_owned()
-                },
+                format!("{:.2} ({lo:.2}–{hi:.2})", g.amplitude[c]),
+                format!("{:.2}–{:.2}", blo.max(0.0), bhi),
+                format!("{:.2}{}", g.teacher_amplitude.get(c).copied().unwrap_or(f64::NAN), mark(teacher_ok)),
+                format!(
+                    "{:.2}{}{}",
+                    made.amplitude[c],
+                    mark(made.channel_ok[c]),
+                    if teacher_ok && !made.channel_ok[c] { " (the generator's)" } else { "" }
+                ),
                 made.channel_period_steps[c].map_or("—".into(), |p| format!("{p:.1}")),
                 format!("{:.2}", made.channel_error[c]),
                 format!("{:.2}", g.channel_spread[c]),
@@ -271,17 +278,21 @@ fn per_channel(s: &mut Section, r: &BodyResult, k: usize, g: &HeldOutGait) {
         })
         .collect();
     s.line(format!(
-        "Every channel while {} (seed {}, the last {WINDOW_S} s of {} s): half ranges in degrees (the held-out trials' median, and their smallest and largest as a ratio to it; the training teacher's; the generator's, and its ratio to the held-out median), the channel's own period in frames (the held-out median: {:.1}), and its RMS error against the held-out trials (median over them) beside the held-out trials' own (median over pairs):",
-        g.teacher, first.model.seed, r.run_s, g.period_frames
+        "Every channel while {} (seed {}, the last {WINDOW_S} s of {} s): half ranges in degrees; the held-out trials' median and their smallest and largest; the range the rule allows (theirs widened on both sides by {:.0} % of the median, by {BARELY_MOVES_DEG}° where the median is below {BARELY_MOVES_DEG}°); the training teacher's and the generator's, ✗ outside it (a channel the teacher holds and the generator does not is the generator's fault; one the teacher misses is the teacher's, its construction's); the channel's own period in frames (the held-out median: {:.1}); its RMS error against the held-out trials (median over them) beside the held-out trials' own (median over pairs):",
+        g.teacher,
+        first.model.seed,
+        r.run_s,
+        100.0 * AMPLITUDE_TOLERANCE,
+        g.period_frames
     ));
     s.blank();
     s.table(
         &[
             "channel",
-            "held-out half range (ratio range)",
+            "held-out half range (smallest–largest)",
+            "allowed",
             "training teacher",
             "generated",
-            "ratio",
             "period",
             "error",
             "held-out spread",
@@ -289,6 +300,67 @@ fn per_channel(s: &mut Section, r: &BodyResult, k: usize, g: &HeldOutGait) {
         "lrrrrrrr",
         &rows,
     );
+}
+
+/// Channels drawn per gait in the held-out cycle figure.
+const CYCLE_PANELS: usize = 4;
+
+/// Per gait, the channels that swing most in the held-out trials: each
+/// trial's cycle, the training teacher's and the first seed's last cycle,
+/// all time-normalised and drawn in the first trial's phase.
+fn held_out_cycles(s: &mut Section, r: &BodyResult) {
+    let d = r.channels.len();
+    let mut panels = Vec::new();
+    let mut drawn = Vec::new();
+    for (k, g) in r.held_out.iter().enumerate() {
+        let mut by_swing: Vec<usize> =
+            (0..d).filter(|&c| r.channels[c].contains(".r") && g.amplitude[c].is_finite()).collect();
+        by_swing.sort_by(|&a, &b| g.amplitude[b].total_cmp(&g.amplitude[a]));
+        let generated = r.seeds.first().and_then(|s| s.gaits.get(k)).map(|x| x.cycle.as_slice()).unwrap_or(&[]);
+        let column = |cycle: &[f64], c: usize| -> Vec<(f64, f64)> {
+            (0..PHASES).filter_map(|p| cycle.get(p * d + c).map(|v| (p as f64 / PHASES as f64, *v))).collect()
+        };
+        for &c in by_swing.iter().take(CYCLE_PANELS) {
+            let mut curves: Vec<Curve> = g
+                .trials
+                .iter()
+                .enumerate()
+                .map(|(i, t)| Curve::new(Look::Data, if i == 0 { "held-out trials" } else { "" }, column(&t.cycle, c)))
+                .collect();
+            curves.push(Curve::new(Look::Teacher, "training teacher", column(&g.teacher_cycle, c)));
+            if !generated.is_empty() {
+                curves.push(Curve::new(Look::Model, "generator", column(generated, c)));
+            }
+            panels.push(Panel {
+                equal_axes: false,
+                title: format!("{}: {}", g.teacher, r.channels[c]),
+                x_label: "phase (cycles)".into(),
+                y_label: "°".into(),
+                curves,
+            });
+        }
+        drawn.push(format!(
+            "{} ({})",
+            g.teacher,
+            by_swing.iter().take(CYCLE_PANELS).map(|&c| format!("`{}`", r.channels[c])).collect::<Vec<_>>().join(", ")
+        ));
+    }
+    if panels.is_empty() {
+        return;
+    }
+    let rows = panels.len().div_ceil(CYCLE_PANELS) as u32;
+    s.figure("fig_whole_body_cycles", panels, CYCLE_PANELS, (1300, 260 * rows));
+    s.line(format!(
+        "![Each gait's held-out trials (light gray), the training teacher (dashed) and seed {}'s last cycle after {} s of free run (black), time-normalised and drawn in the first trial's phase, for the channels that swing most in the held-out trials](fig_whole_body_cycles.png)",
+        r.seeds.first().map_or(0, |s| s.model.seed),
+        r.run_s
+    ));
+    s.blank();
+    s.line(format!(
+        "The figure draws, per gait, the {CYCLE_PANELS} rotations that swing most in the held-out trials: {}.",
+        drawn.join("; ")
+    ));
+    s.blank();
 }
 
 fn switch_runs(s: &mut Section, r: &BodyResult) {
@@ -354,6 +426,41 @@ fn robot(s: &mut Section, r: &BodyResult) {
         worst.map_or(String::new(), |j| format!("; the furthest a command lagged the angle asked for is {:.1}° (`{}`)", j.max_lag_rad.to_degrees(), j.joint))
     ));
     s.blank();
+    // Which joints bind: the ones a bound changed most often, with what was asked of them.
+    let mut binding: Vec<(usize, &cpg_hoap2::JointClamp)> =
+        c.joints.iter().enumerate().filter(|(_, j)| j.limited_share() > 0.05).collect();
+    binding.sort_by(|a, b| b.1.limited_share().total_cmp(&a.1.limited_share()));
+    if !binding.is_empty() {
+        let each: Vec<String> = binding
+            .iter()
+            .map(|&(k, j)| {
+                let limit = r.robot_velocity_limits_rad_s.get(k).copied().unwrap_or(f64::NAN);
+                let share = |n: usize| 100.0 * n as f64 / j.n_frames.max(1) as f64;
+                if j.n_clamped >= j.n_velocity_limited.max(j.n_acceleration_limited) {
+                    format!(
+                        "`{}` by its range (the generated motion asks angles beyond it on {:.1} % of the frames)",
+                        j.joint,
+                        share(j.n_clamped)
+                    )
+                } else {
+                    format!(
+                        "`{}` by its speed (the generated motion asks up to {:.1} rad/s where its URDF limit is {:.1} rad/s, {:.1}×; velocity-limited on {:.1} % of the frames, acceleration-limited on {:.1} %)",
+                        j.joint,
+                        j.max_velocity_rad_s,
+                        limit,
+                        j.max_velocity_rad_s / limit,
+                        share(j.n_velocity_limited),
+                        share(j.n_acceleration_limited)
+                    )
+                }
+            })
+            .collect();
+        s.line(format!(
+            "At the person's tempo this body binds at {}. The run is shown as the limits make it, not slowed to fit.",
+            each.join("; ")
+        ));
+        s.blank();
+    }
     s.table(
         &[
             "joint",
