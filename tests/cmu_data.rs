@@ -196,8 +196,8 @@ fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
         let [l, r] = plan.ankles_m[f];
         assert!(l[1] - r[1] > 0.07, "frame {f}: the feet are {} m apart", l[1] - r[1]);
         match plan.support[f] {
-            Support::Left => assert!((l[2] - cpg_hoap2::walk::ANKLE_HEIGHT_M).abs() < 1e-12),
-            Support::Right => assert!((r[2] - cpg_hoap2::walk::ANKLE_HEIGHT_M).abs() < 1e-12),
+            Support::Left => assert!((l[2] - robot.spec().unwrap().feet.ankle_height_m).abs() < 1e-12),
+            Support::Right => assert!((r[2] - robot.spec().unwrap().feet.ankle_height_m).abs() < 1e-12),
             Support::Double => {}
         }
     }

@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use anyhow::Context as _;
-use cpg_hoap2::physics::{HOAP2_SHAPES, MjcfSettings, derivation_markdown, mjcf, physical_urdf};
+use cpg_hoap2::RobotSpec;
+use cpg_hoap2::physics::{HOAP2_SHAPES, derivation_markdown, mjcf, physical_urdf};
 
 /// The markers around the generated part of docs/hoap2-model.md.
 pub const BEGIN: &str = "<!-- begin: written by `cargo xtask hoap2-model` -->\n";
@@ -14,8 +15,9 @@ pub const END: &str = "<!-- end: written by `cargo xtask hoap2-model` -->\n";
 pub fn texts(urdf_now: &str, doc_now: &str) -> anyhow::Result<(String, String, String)> {
     let path = Path::new("assets/hoap2/hoap2.urdf");
     let urdf = physical_urdf(urdf_now, path, &HOAP2_SHAPES)?;
-    let xml = mjcf(&urdf, path, &HOAP2_SHAPES, &MjcfSettings::HOAP2)?;
-    let table = derivation_markdown(&urdf, path, &HOAP2_SHAPES)?;
+    let spec = RobotSpec::hoap2();
+    let xml = mjcf(&urdf, path, &HOAP2_SHAPES, &spec)?;
+    let table = derivation_markdown(&urdf, path, &HOAP2_SHAPES, &spec)?;
     let (Some(b), Some(e)) = (doc_now.find(BEGIN), doc_now.find(END)) else {
         anyhow::bail!("docs/hoap2-model.md: the markers {BEGIN:?} and {END:?} are missing");
     };

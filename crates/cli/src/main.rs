@@ -373,8 +373,9 @@ struct RecordingArgs {
 /// The robot a command drives: its URDF, the map onto its joints, and the acceleration bound.
 #[derive(Debug, clap::Args)]
 struct RobotArgs {
-    /// The robot description: a URDF file, or `hoap2` for the project's
-    /// `assets/hoap2/hoap2.urdf`, built into this program.
+    /// The robot description: a URDF file, a robot's folder (its
+    /// `robot.toml` naming its URDF, legs, feet and servos), or `hoap2` for
+    /// the project's `assets/hoap2`, built into this program.
     #[arg(long, default_value = "hoap2")]
     urdf: PathBuf,
     /// The channel-to-joint map: a TSV file (joint, channel, sign, offset_deg;

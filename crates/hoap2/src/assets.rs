@@ -25,14 +25,26 @@ pub const ROBOTS: [&str; 1] = ["hoap2"];
 pub const MAPS: [&str; 2] = ["hoap2", "legs"];
 
 impl Robot {
-    /// The HOAP-2 as the project describes it ([`HOAP2_URDF`]).
+    /// The HOAP-2 as the project describes it ([`HOAP2_URDF`], with its
+    /// spec [`crate::spec::HOAP2_SPEC`]).
     pub fn hoap2() -> Result<Robot> {
-        Robot::from_urdf_str(HOAP2_URDF, Path::new("hoap2.urdf"))
+        Robot::from_urdf_str(HOAP2_URDF, Path::new("hoap2.urdf"))?.with_spec(crate::RobotSpec::hoap2())
     }
 
-    /// A robot given as `hoap2` (the built-in one) or as a URDF file's path.
+    /// A robot given as `hoap2` (the built-in one), as a robot's folder (its
+    /// `robot.toml` naming its URDF) or spec file, or as a URDF file's path
+    /// (no spec: it can be mapped onto, not walked).
     pub fn from_spec(spec: &Path) -> Result<Robot> {
-        if spec.as_os_str() == "hoap2" { Robot::hoap2() } else { Robot::from_urdf_file(spec) }
+        if spec.as_os_str() == "hoap2" {
+            return Robot::hoap2();
+        }
+        let is_spec = spec.is_dir() || spec.extension().is_some_and(|e| e == "toml");
+        if !is_spec {
+            return Robot::from_urdf_file(spec);
+        }
+        let s = crate::RobotSpec::load(spec)?;
+        let dir = if spec.is_dir() { spec } else { spec.parent().unwrap_or(Path::new(".")) };
+        Robot::from_urdf_file(&crate::RobotSpec::path_in(dir, &s.urdf))?.with_spec(s)
     }
 }
 

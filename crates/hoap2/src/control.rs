@@ -16,9 +16,6 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The servos' speed limit (MuJoCo has none of its own).
-pub const SPEED_LIMIT_RAD_S: f64 = 5.0;
-
 /// Balance feedback gains: `offset = -(kp·angle + kd·rate)` per joint group
 /// (rad per rad, rad per rad/s; 0: none), and phase resetting at touch-down.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -60,10 +57,9 @@ impl Default for Gains {
     }
 }
 
-/// The joint groups the attitude feedback moves, in the order of
-/// [`WalkController::feedback`]'s terms, with the leg joint number of each.
-pub const FEEDBACK_GROUPS: [(&str, usize); 5] =
-    [("ankle_pitch", 5), ("ankle_roll", 6), ("hip_pitch", 3), ("hip_roll", 2), ("hip_yaw", 1)];
+/// The leg joints the attitude feedback moves, by their role in the robot's
+/// spec ([`crate::spec::LegSpec`]), in the order of [`WalkController::feedback`]'s terms.
+pub const FEEDBACK_ROLES: [&str; 5] = ["ankle_pitch", "ankle_roll", "hip_pitch", "hip_roll", "hip_yaw"];
 
 /// Roll, pitch and yaw (rad) of an orientation quaternion `[w, x, y, z]`.
 pub fn tilt(q: [f64; 4]) -> (f64, f64, f64) {
@@ -310,6 +306,8 @@ pub struct WalkController<D> {
     hi: Vec<f64>,
     /// (joint, feedback group) of every joint the feedback moves.
     fed: Vec<(usize, usize)>,
+    /// The servos' speed limit, rad/s (MuJoCo has none of its own).
+    speed_limit_rad_s: f64,
     /// The sole's force from which it counts as loaded: a fifth of the robot's weight, N.
     loaded_n: f64,
     tempo: f64,
@@ -327,13 +325,15 @@ pub struct WalkController<D> {
 }
 
 impl<D: Drive> WalkController<D> {
-    /// A controller for `plan` (its joints in the order of `lo`, `hi`), with
+    /// A controller for `plan` (its joints in the order of `lo`, `hi`) on
+    /// the robot `robot` describes (its legs' joints, its servos' speed), with
     /// the robot's `mass_kg`, a physics step of `dt_s`, a tempo factor from
     /// `tempo_at_s` on, `servos` actuators measured, and `driven` taking over
     /// at its hand-over. The commands start at the plan's first frame.
     #[allow(clippy::too_many_arguments)] // one run's settings, each named at the call
     pub fn new(
         plan: Plan,
+        robot: &crate::RobotSpec,
         joint_names: &[&str],
         lo: Vec<f64>,
         hi: Vec<f64>,
@@ -360,9 +360,9 @@ impl<D: Drive> WalkController<D> {
             return Err(format!("a driven joint index {k} for a plan of {j} joints"));
         }
         let mut fed = Vec::new();
-        for (g, (_, number)) in FEEDBACK_GROUPS.iter().enumerate() {
-            for side in ["l", "r"] {
-                let name = format!("{side}leg_joint_{number}");
+        for (g, role) in FEEDBACK_ROLES.iter().enumerate() {
+            for leg in [&robot.legs.left, &robot.legs.right] {
+                let name = leg.joint(role).unwrap_or_default();
                 if let Some(k) = joint_names.iter().position(|n| *n == name) {
                     fed.push((k, g));
                 }
@@ -378,6 +378,7 @@ impl<D: Drive> WalkController<D> {
             lo,
             hi,
             fed,
+            speed_limit_rad_s: robot.servos.speed_limit_rad_s,
             tempo,
             tempo_at_s,
             driven,
@@ -479,7 +480,7 @@ impl<D: Drive> WalkController<D> {
         for &(k, g) in &self.fed {
             self.target[k] -= terms[g];
         }
-        let step_max = SPEED_LIMIT_RAD_S * dt;
+        let step_max = self.speed_limit_rad_s * dt;
         for (k, (c, t)) in self.cmd.iter_mut().zip(&self.target).enumerate() {
             // In NumPy's order: the step limited, then the range (NaN passes through).
             let mut d = t - *c;
@@ -565,8 +566,21 @@ mod tests {
     fn a_level_trunk_gets_no_feedback_and_a_tilted_one_does() {
         let g = Gains { ankle_pitch_kp: 0.5, hip_roll_kp: -1.0, ..Gains::default() };
         let names = ["lleg_joint_5", "rleg_joint_2", "larm_joint_1"];
-        let c: WalkController<Sine> =
-            WalkController::new(plan(3), &names, vec![-1.0; 3], vec![1.0; 3], g, 7.0, 1e-3, 1.0, 0.0, 3, None).unwrap();
+        let c: WalkController<Sine> = WalkController::new(
+            plan(3),
+            &crate::RobotSpec::hoap2(),
+            &names,
+            vec![-1.0; 3],
+            vec![1.0; 3],
+            g,
+            7.0,
+            1e-3,
+            1.0,
+            0.0,
+            3,
+            None,
+        )
+        .unwrap();
         assert_eq!(c.feedback(&LEVEL), [0.0; 5]);
         let a = 0.1_f64; // pitch by 0.1 rad: a rotation about y
         let pitched = Sensors { quat: [(a / 2.0).cos(), 0.0, (a / 2.0).sin(), 0.0], ..LEVEL };
@@ -581,6 +595,7 @@ mod tests {
         let names = ["a", "b"];
         let mut c: WalkController<Sine> = WalkController::new(
             plan(2),
+            &crate::RobotSpec::hoap2(),
             &names,
             vec![-1.0; 2],
             vec![0.5, 1.5],
@@ -599,7 +614,7 @@ mod tests {
             let before = c.commands().to_vec();
             c.control(step as f64 * 1e-3, &LEVEL, &act, &mut ctrl).unwrap();
             for (b, a) in before.iter().zip(c.commands()) {
-                assert!((a - b).abs() <= SPEED_LIMIT_RAD_S * 1e-3 + 1e-15);
+                assert!((a - b).abs() <= crate::RobotSpec::hoap2().servos.speed_limit_rad_s * 1e-3 + 1e-15);
             }
             assert_eq!([ctrl[3], ctrl[1]], [c.commands()[0], c.commands()[1]]);
         }
@@ -622,6 +637,7 @@ mod tests {
         let d = Driven::new(Sine { out: vec![0.0], steps: 0 }, vec![0], 100.0, 0.2, &[0.0], schedule).unwrap();
         let mut c = WalkController::new(
             plan(1),
+            &crate::RobotSpec::hoap2(),
             &names,
             vec![-10.0],
             vec![10.0],
@@ -645,9 +661,21 @@ mod tests {
 
     #[test]
     fn the_measures_keep_the_largest_torque_and_add_the_work() {
-        let mut c: WalkController<Sine> =
-            WalkController::new(plan(1), &["a"], vec![-1.0], vec![1.0], Gains::default(), 7.0, 0.5, 1.0, 0.0, 2, None)
-                .unwrap();
+        let mut c: WalkController<Sine> = WalkController::new(
+            plan(1),
+            &crate::RobotSpec::hoap2(),
+            &["a"],
+            vec![-1.0],
+            vec![1.0],
+            Gains::default(),
+            7.0,
+            0.5,
+            1.0,
+            0.0,
+            2,
+            None,
+        )
+        .unwrap();
         c.measure(&[2.0, -3.0], &[1.0, 1.0]);
         c.measure(&[-1.0, 1.0], &[0.0, 2.0]);
         assert_eq!(c.torque_peak(), &[2.0, 3.0]);

@@ -5,10 +5,6 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 
 use crate::{Error, JointTrajectory, Result, Robot};
 
-/// The sole's centre in the frame of the ankle-roll joint's child link, metres
-/// (shared/reference/hoap2-joints.md: 0.0112 m forward of and 0.033 m below the ankle).
-pub const SOLE_IN_ANKLE_M: [f64; 3] = [0.0112, 0.0, -0.033];
-
 impl Robot {
     /// The pose of every joint's child link in the frame of the root link
     /// (the trunk), for angles `q_rad` of the joints named in `names`; other joints are at 0.

@@ -35,10 +35,12 @@ pub mod control;
 mod kinematics;
 pub mod physics;
 mod smooth;
+pub mod spec;
 pub mod walk;
 
-pub use kinematics::{Gait, SOLE_IN_ANKLE_M, gait};
+pub use kinematics::{Gait, gait};
 pub use smooth::{Bounds, LimitCounts, Limiter, natural_spline};
+pub use spec::RobotSpec;
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -273,6 +275,9 @@ pub struct Robot {
     pub joints: Vec<Joint>,
     /// Total mass of all links, kg.
     pub mass_kg: f64,
+    /// What the robot's folder says beyond its URDF (legs, feet, sensors,
+    /// servos, home pose): `None` for a robot read from a URDF alone.
+    pub spec: Option<Box<RobotSpec>>,
 }
 
 impl Robot {
@@ -310,13 +315,37 @@ impl Robot {
             });
         }
         let mass_kg = r.links.iter().map(|l| l.inertial.mass.value).sum();
-        Ok(Robot { name: r.name, joints, mass_kg })
+        Ok(Robot { name: r.name, joints, mass_kg, spec: None })
     }
 
-    /// Reads a URDF file.
+    /// The robot with its spec, checked against its joints.
+    pub fn with_spec(mut self, spec: RobotSpec) -> Result<Robot> {
+        spec.check(&self)?;
+        self.spec = Some(Box::new(spec));
+        Ok(self)
+    }
+
+    /// Its spec, or an error saying that what was asked needs one.
+    pub fn spec(&self) -> Result<&RobotSpec> {
+        self.spec.as_deref().ok_or_else(|| {
+            Error::Input(format!(
+                "robot '{}' was read from a URDF alone; walking it needs its folder's robot.toml (legs, feet, sensors, servos: crates/hoap2/src/spec.rs)",
+                self.name
+            ))
+        })
+    }
+
+    /// Reads a URDF file, with the spec of its folder when a `robot.toml`
+    /// beside it names this file as its URDF (a robot's folder).
     pub fn from_urdf_file(path: &Path) -> Result<Robot> {
         let text = read_text(path)?;
-        Robot::from_urdf_str(&text, path)
+        let robot = Robot::from_urdf_str(&text, path)?;
+        let beside = path.parent().unwrap_or(Path::new(".")).join("robot.toml");
+        if !beside.is_file() {
+            return Ok(robot);
+        }
+        let spec = RobotSpec::load(&beside)?;
+        if spec.urdf.file_name() == path.file_name() { robot.with_spec(spec) } else { Ok(robot) }
     }
 
     /// A joint by name.

@@ -10,7 +10,7 @@
 //! scene: a floor, the body tree, a position servo on every joint limited to
 //! the URDF's effort, the soles' friction with a torsional term, collisions
 //! between the two legs, an IMU and sole touch sensors, and a keyframe
-//! `home` standing in [`HOME_POSE_DEG`]. `docs/hoap2-model.md` gives the
+//! `home` standing in the home pose of its spec (`home_pose_deg`). `docs/hoap2-model.md` gives the
 //! derivation; `cargo xtask hoap2-model` writes the files.
 
 use std::collections::BTreeMap;
@@ -131,23 +131,6 @@ pub const HOAP2_SHAPES: [Shape; 28] = {
     ]
 };
 
-/// The home crouch, degrees: the real robot's initial posture in its
-/// walking file (reference \[K\]: hip pitch −20°, knee +40°, arms hanging with
-/// joint 2 at ±10°), except the ankle pitch, −20° instead of −22° so that the
-/// soles are flat (hip + knee + ankle pitch = 0). Joints not named are at 0.
-pub const HOME_POSE_DEG: [(&str, f64); 10] = [
-    ("lleg_joint_3", -20.0),
-    ("lleg_joint_4", 40.0),
-    ("lleg_joint_5", -20.0),
-    ("rleg_joint_3", -20.0),
-    ("rleg_joint_4", 40.0),
-    ("rleg_joint_5", -20.0),
-    ("larm_joint_1", 90.0),
-    ("larm_joint_2", 10.0),
-    ("rarm_joint_1", 90.0),
-    ("rarm_joint_2", -10.0),
-];
-
 /// The simulation settings of [`mjcf`]. None of these is in the sources:
 /// each is ours, stated in `docs/hoap2-model.md`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -169,16 +152,19 @@ pub struct MjcfSettings {
 }
 
 impl MjcfSettings {
-    /// The settings of the project's `assets/hoap2/hoap2.xml`.
-    pub const HOAP2: MjcfSettings = MjcfSettings {
-        timestep_s: 0.001,
-        kp_nm_per_rad: 50.0,
-        kv_nm_s_per_rad: 0.5,
-        armature_kg_m2: 0.005,
-        damping_nm_s_per_rad: 0.05,
-        sliding_friction: 1.0,
-        torsional_friction_m: 0.02,
-    };
+    /// The settings a robot's spec gives its servos and soles.
+    pub fn of(spec: &crate::RobotSpec) -> MjcfSettings {
+        let s = &spec.servos;
+        MjcfSettings {
+            timestep_s: s.timestep_s,
+            kp_nm_per_rad: s.kp_nm_per_rad,
+            kv_nm_s_per_rad: s.kv_nm_s_per_rad,
+            armature_kg_m2: s.armature_kg_m2,
+            damping_nm_s_per_rad: s.damping_nm_s_per_rad,
+            sliding_friction: s.sliding_friction,
+            torsional_friction_m: s.torsional_friction_m,
+        }
+    }
 }
 
 /// The inertia of a uniform solid box about its centre, kg·m² (`[Ixx, Iyy, Izz]`).
@@ -324,13 +310,9 @@ fn contact_bits(contact: Contact, side: Option<bool>) -> (u32, u32) {
     }
 }
 
-/// The angles of [`HOME_POSE_DEG`] in radians for the joints of `robot`, in its order.
-pub fn home_pose_rad(robot: &Robot) -> Vec<f64> {
-    robot
-        .joints
-        .iter()
-        .map(|j| HOME_POSE_DEG.iter().find(|(n, _)| *n == j.name).map_or(0.0, |(_, d)| d.to_radians()))
-        .collect()
+/// The home pose of `robot`'s spec in radians for its joints, in its order.
+pub fn home_pose_rad(robot: &Robot) -> Result<Vec<f64>> {
+    Ok(robot.spec()?.home_pose_rad(robot))
 }
 
 /// How high the trunk origin stands when the lowest corner of any
@@ -411,7 +393,7 @@ pub fn centre_of_mass_m(robot: &Robot, urdf: &str, path: &Path, q_rad: &[f64]) -
 }
 
 /// A MuJoCo scene (MJCF) of the URDF `text` (as [`physical_urdf`] writes
-/// it): a floor, the body on a free joint standing in [`HOME_POSE_DEG`] (keyframe
+/// it): a floor, the body on a free joint standing in the home pose of its spec (`home_pose_deg`) (keyframe
 /// `home`, which also holds the servos' commands), a position servo per
 /// revolute joint named after it (force limited to the joint's effort,
 /// commands to its range), the soles' contacts with torsional friction,
@@ -421,16 +403,17 @@ pub fn centre_of_mass_m(robot: &Robot, urdf: &str, path: &Path, q_rad: &[f64]) -
 /// MuJoCo has no joint speed limit: the 5 rad/s of the URDF is the
 /// commander's to keep (cpg's [`crate::Limiter`] keeps every trajectory
 /// within it, and `cpg.sim` rate-limits each command).
-pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], settings: &MjcfSettings) -> Result<String> {
+pub fn mjcf(text: &str, path: &Path, shapes: &[Shape], spec: &crate::RobotSpec) -> Result<String> {
     let r = parse(text, path)?;
-    let robot = Robot::from_urdf_str(text, path)?;
+    let robot = Robot::from_urdf_str(text, path)?.with_spec(spec.clone())?;
+    let settings = &MjcfSettings::of(spec);
     let links: BTreeMap<&str, &urdf_rs::Link> = r.links.iter().map(|l| (l.name.as_str(), l)).collect();
     let roots: Vec<&str> =
         r.links.iter().map(|l| l.name.as_str()).filter(|n| !r.joints.iter().any(|j| j.child.link == *n)).collect();
     let [root] = roots.as_slice() else {
         return Err(urdf_error(path, format!("{} root links ({roots:?}); a robot has one", roots.len())));
     };
-    let home = home_pose_rad(&robot);
+    let home = home_pose_rad(&robot)?;
     let height = standing_height_m(&robot, shapes, &home)? + 0.0005;
     let mut out = mjcf_header(&r.name, settings);
     let ctx = Ctx { urdf: &r, links: &links, shapes, path, trunk: root };
@@ -626,9 +609,9 @@ fn mjcf_keyframe(out: &mut String, r: &urdf_rs::Robot, robot: &Robot, root: &str
 /// The derivation as a Markdown table (each link's mass, box, density, centre
 /// of mass and inertia) and the whole body's figures in the home crouch, for
 /// `docs/hoap2-model.md`.
-pub fn derivation_markdown(text: &str, path: &Path, shapes: &[Shape]) -> Result<String> {
+pub fn derivation_markdown(text: &str, path: &Path, shapes: &[Shape], spec: &crate::RobotSpec) -> Result<String> {
     let r = parse(text, path)?;
-    let robot = Robot::from_urdf_str(text, path)?;
+    let robot = Robot::from_urdf_str(text, path)?.with_spec(spec.clone())?;
     let mut out = String::new();
     out.push_str("| link | mass (kg) | box x × y × z (mm) | centre of mass (mm) | density (kg/m³) | Ixx, Iyy, Izz (kg·m²) | box from |\n");
     out.push_str("|---|---:|---|---|---:|---|---|\n");
@@ -666,7 +649,7 @@ pub fn derivation_markdown(text: &str, path: &Path, shapes: &[Shape]) -> Result<
             s.source
         );
     }
-    let home = home_pose_rad(&robot);
+    let home = home_pose_rad(&robot)?;
     let height = standing_height_m(&robot, shapes, &home)?;
     let com = centre_of_mass_m(&robot, text, path, &home)?;
     let names: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
@@ -677,7 +660,7 @@ pub fn derivation_markdown(text: &str, path: &Path, shapes: &[Shape]) -> Result<
         let p = poses[k] * Point3::from(s.centre_m);
         Some([p.x, p.y])
     };
-    let _ = writeln!(out, "\nIn the home crouch (`HOME_POSE_DEG`):\n");
+    let _ = writeln!(out, "\nIn the home crouch (`home_pose_deg` of `assets/hoap2/robot.toml`):\n");
     let _ = writeln!(
         out,
         "- total mass {} kg; the trunk origin {} mm above the floor;",

@@ -17,16 +17,12 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix4, Translation3, Unit, UnitQuaternion, Vector3, Vector4};
 
-use crate::kinematics::SOLE_IN_ANKLE_M;
 use crate::physics::{MassModel, com_of, home_pose_rad};
+use crate::spec::{FeetSpec, LegSpec, leg_chain};
 use crate::{Error, Result, Robot};
 
 /// Gravity, m/s².
 pub const G_M_S2: f64 = 9.81;
-/// The height of the ankle joint above the floor when the sole lies flat on it, metres.
-pub const ANKLE_HEIGHT_M: f64 = 0.0355;
-/// The sole's size (x, y), metres (shared/reference/hoap2-joints.md).
-pub const SOLE_SIZE_M: [f64; 2] = [0.094, 0.062];
 
 /// The most frames a plan holds.
 pub const MAX_FRAMES: usize = 2_000_000;
@@ -229,24 +225,9 @@ struct Leg {
 }
 
 impl Leg {
-    fn new(robot: &Robot, side: &str) -> Result<Leg> {
-        // The chain's order in the URDF: yaw, pitch, roll, knee, ankle pitch, ankle roll.
-        let names = [1, 3, 2, 4, 5, 6].map(|k| format!("{side}_joint_{k}"));
-        let mut index = [0; 6];
-        for (i, n) in names.iter().enumerate() {
-            index[i] = robot.joints.iter().position(|j| &j.name == n).ok_or_else(|| Error::UnknownJoint {
-                name: n.clone(),
-                valid: robot.joints.iter().map(|j| j.name.clone()).collect(),
-            })?;
-        }
-        for w in index.windows(2) {
-            if robot.joints[w[1]].parent != robot.joints[w[0]].child {
-                return Err(Error::Input(format!(
-                    "{}'s child is not {}'s parent: not a serial leg",
-                    robot.joints[w[0]].name, robot.joints[w[1]].name
-                )));
-            }
-        }
+    fn new(robot: &Robot, leg: &LegSpec) -> Result<Leg> {
+        // The chain's order in the URDF (the HOAP-2's: yaw, pitch, roll, knee, ankle pitch, ankle roll).
+        let index = leg_chain(robot, leg)?;
         let j = |i: usize| &robot.joints[index[i]];
         Ok(Leg {
             index,
@@ -353,14 +334,15 @@ pub fn sample(profile: &[f64], s: f64) -> f64 {
     profile[i] * (1.0 - f) + profile[i + 1] * f
 }
 
-fn footsteps(p: &WalkParams) -> Footsteps {
+fn footsteps(p: &WalkParams, feet: &FeetSpec) -> Footsteps {
+    let (sole_in_ankle, ankle_height) = (feet.sole_in_ankle_m, feet.ankle_height_m);
     let dt = 1.0 / p.rate_hz;
     let step_s = p.stride_period_s / 2.0;
     let ds_s = p.double_support_share * step_s;
     let ss_s = step_s - ds_s;
-    let sole = |ankle: [f64; 3]| [ankle[0] + SOLE_IN_ANKLE_M[0], ankle[1] + SOLE_IN_ANKLE_M[1]];
-    let mut left = [0.0, p.foot_y_m, ANKLE_HEIGHT_M];
-    let mut right = [0.0, -p.foot_y_m, ANKLE_HEIGHT_M];
+    let sole = |ankle: [f64; 3]| [ankle[0] + sole_in_ankle[0], ankle[1] + sole_in_ankle[1]];
+    let mut left = [0.0, p.foot_y_m, ankle_height];
+    let mut right = [0.0, -p.foot_y_m, ankle_height];
     let mut out = Footsteps { ankles: Vec::new(), support: Vec::new(), zmp_ref: Vec::new(), left_strikes: Vec::new() };
     let push = |out: &mut Footsteps, l: [f64; 3], r: [f64; 3], s: Support, z: [f64; 2]| {
         out.ankles.push([l, r]);
@@ -391,15 +373,15 @@ fn footsteps(p: &WalkParams) -> Footsteps {
         for i in 0..n_ss {
             let s = (i + 1) as f64 / n_ss as f64;
             let x = swing0[0] + advance * sample(&p.advance_profile, s);
-            let z = ANKLE_HEIGHT_M + p.lift_m * sample(&p.lift_profile, s);
+            let z = ankle_height + p.lift_m * sample(&p.lift_profile, s);
             let foot = [x, swing0[1], z];
             let (l, r, sup) = if right_swings { (left, foot, Support::Left) } else { (foot, right, Support::Right) };
             push(&mut out, l, r, sup, sole(stance));
         }
         if right_swings {
-            right = [swing0[0] + advance, swing0[1], ANKLE_HEIGHT_M];
+            right = [swing0[0] + advance, swing0[1], ankle_height];
         } else {
-            left = [swing0[0] + advance, swing0[1], ANKLE_HEIGHT_M];
+            left = [swing0[0] + advance, swing0[1], ankle_height];
             out.left_strikes.push(out.ankles.len());
         }
         zmp_from = sole(stance);
@@ -466,7 +448,8 @@ pub fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
 }
 
 /// The soles' corners (world xy) of the feet that carry the body.
-fn support_corners(ankles: &[[f64; 3]; 2], support: Support) -> Vec<[f64; 2]> {
+fn support_corners(ankles: &[[f64; 3]; 2], support: Support, feet: &FeetSpec) -> Vec<[f64; 2]> {
+    let (sole_in_ankle, sole_size) = (feet.sole_in_ankle_m, feet.sole_size_m);
     let feet: &[usize] = match support {
         Support::Double => &[0, 1],
         Support::Left => &[0],
@@ -474,9 +457,9 @@ fn support_corners(ankles: &[[f64; 3]; 2], support: Support) -> Vec<[f64; 2]> {
     };
     let mut out = Vec::with_capacity(8);
     for &f in feet {
-        let c = [ankles[f][0] + SOLE_IN_ANKLE_M[0], ankles[f][1] + SOLE_IN_ANKLE_M[1]];
+        let c = [ankles[f][0] + sole_in_ankle[0], ankles[f][1] + sole_in_ankle[1]];
         for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            out.push([c[0] + sx * SOLE_SIZE_M[0] / 2.0, c[1] + sy * SOLE_SIZE_M[1] / 2.0]);
+            out.push([c[0] + sx * sole_size[0] / 2.0, c[1] + sy * sole_size[1] / 2.0]);
         }
     }
     out
@@ -550,7 +533,7 @@ fn multibody_zmp(
         }
         let z = [num_x / den, num_y / den];
         zmp.push(z);
-        let hull = convex_hull(&support_corners(&steps.ankles[f], steps.support[f]));
+        let hull = convex_hull(&support_corners(&steps.ankles[f], steps.support[f], &robot.spec()?.feet));
         margin.push(polygon_margin(&hull, z));
     }
     Ok((zmp, margin))
@@ -573,7 +556,8 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
                 .ok_or_else(|| Error::UnknownJoint { name: j.clone(), valid: names.clone() })
         })
         .collect::<Result<_>>()?;
-    let legs = [Leg::new(robot, "lleg")?, Leg::new(robot, "rleg")?];
+    let spec = robot.spec()?;
+    let legs = [Leg::new(robot, &spec.legs.left)?, Leg::new(robot, &spec.legs.right)?];
     let dt = 1.0 / p.rate_hz;
     let expected = (2.0 * p.stand_s + (p.steps as f64 + 2.0) * p.stride_period_s / 2.0) * p.rate_hz;
     if expected > MAX_FRAMES as f64 {
@@ -581,11 +565,11 @@ pub fn plan(robot: &Robot, mass: &MassModel, p: &WalkParams) -> Result<WalkPlan>
             "the walk needs about {expected:.0} frames: at most {MAX_FRAMES} (fewer steps or a lower rate)"
         ));
     }
-    let steps = footsteps(p);
+    let steps = footsteps(p, &spec.feet);
     let n = steps.ankles.len();
 
     // The home crouch's whole-body centre of mass, relative to the trunk origin.
-    let home = home_pose_rad(robot);
+    let home = home_pose_rad(robot)?;
     let mut pts = Vec::with_capacity(robot.joints.len() + 1);
     mass.points(&robot.link_poses(&names, &home)?, &mut pts);
     let com_home = com_of(&pts);
@@ -729,10 +713,10 @@ mod tests {
             arm_swing: vec![("larm_joint_1".into(), swing)],
         };
         let plan = plan(&robot, &mass, &p).unwrap();
-        let steps = footsteps(&p);
+        let steps = footsteps(&p, &robot.spec().unwrap().feet);
         let d = plan.joints.len();
         let k = plan.joints.iter().position(|j| j == "larm_joint_1").unwrap();
-        let home = home_pose_rad(&robot)[k];
+        let home = home_pose_rad(&robot).unwrap()[k];
         // Every left touch-down after the arms have faded in, up to the last stride: the swing's start.
         let strikes = &steps.left_strikes[1..steps.left_strikes.len() - 1];
         assert!(strikes.len() > 15);

@@ -238,7 +238,7 @@ fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
     let none: Vec<String> = Vec::new();
     let poses = r.link_poses(&none, &[]).unwrap();
     let ankle = r.joints.iter().position(|j| j.name == "lleg_joint_6").unwrap();
-    let sole = poses[ankle] * nalgebra::Point3::from(cpg_hoap2::SOLE_IN_ANKLE_M);
+    let sole = poses[ankle] * nalgebra::Point3::from(cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m);
     // Zero pose: the hip 0.034 m behind, 0.039 m to the side of and 0.055 m below the trunk
     // origin, thigh and shank 0.1 m each, the sole 0.033 m below the ankle and 0.0112 m forward.
     assert!((sole.x - (-0.034 + 0.0112)).abs() < 1e-9 && (sole.y - 0.039).abs() < 1e-9, "{sole}");
@@ -252,8 +252,8 @@ fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
     let sk = Skeleton::from_file(find(Subject::S35, "35.asf").unwrap()).unwrap();
     let motion = Motion::from_amc_file(find(Subject::S35, "35_01.amc").unwrap(), &sk, 120.0).unwrap();
     let t = m.apply(&r, &motion.channel_names(), motion.values(), 120.0).unwrap();
-    let left = r.path(&t, "lleg_joint_6", cpg_hoap2::SOLE_IN_ANKLE_M).unwrap();
-    let right = r.path(&t, "rleg_joint_6", cpg_hoap2::SOLE_IN_ANKLE_M).unwrap();
+    let left = r.path(&t, "lleg_joint_6", cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
+    let right = r.path(&t, "rleg_joint_6", cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
     let g = cpg_hoap2::gait(&left, &right, 120.0, 0, 2).unwrap();
     // 35_01's stride is about 135 frames (1.12 s), the legs in antiphase.
     assert!((g.period_s - 1.12).abs() < 0.1, "{g:?}");
@@ -311,4 +311,55 @@ fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
         );
     }
     assert!(l.clamps.joints[1].n_velocity_limited > 0, "the ankle is held back by its speed limit");
+}
+
+/// A robot is a folder of data: the HOAP-2's folder copied under another
+/// name with every leg and arm joint renamed (in its URDF and its
+/// robot.toml) loads by its folder and plans the same walk, number for
+/// number, under the new names; a robot read from its URDF alone cannot be
+/// walked and says what it lacks.
+#[test]
+fn a_robot_is_a_folder_and_its_names_are_data() {
+    use cpg_hoap2::physics::MassModel;
+    use cpg_hoap2::walk::{WalkParams, plan};
+    let dir = std::env::temp_dir().join(format!("cpg-robot-folder-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rename = |t: &str| t.replace("lleg_joint_", "left_leg_").replace("rleg_joint_", "right_leg_");
+    let urdf = rename(&std::fs::read_to_string(asset("hoap2.urdf")).unwrap());
+    std::fs::write(dir.join("twin.urdf"), &urdf).unwrap();
+    let spec = rename(&std::fs::read_to_string(asset("robot.toml")).unwrap())
+        .replace("name = \"hoap2\"", "name = \"twin\"")
+        .replace("urdf = \"hoap2.urdf\"", "urdf = \"twin.urdf\"");
+    std::fs::write(dir.join("robot.toml"), spec).unwrap();
+    let twin = Robot::from_spec(&dir).unwrap();
+    let hoap2 = Robot::hoap2().unwrap();
+    assert_eq!(twin.spec().unwrap().name, "twin");
+    assert_eq!(twin.spec().unwrap().legs.left.knee, "left_leg_4");
+    let p = WalkParams {
+        stride_period_s: 1.1,
+        double_support_share: 0.2,
+        step_length_m: 0.03,
+        foot_y_m: 0.039,
+        lift_m: 0.02,
+        lift_profile: vec![0.0, 1.0, 0.0],
+        advance_profile: vec![0.0, 0.5, 1.0],
+        trunk_height_m: 0.24,
+        steps: 6,
+        stand_s: 0.5,
+        rate_hz: 200.0,
+        preview_s: 1.0,
+        arm_swing: Vec::new(),
+    };
+    let mass = |r: &Robot, text: &str| MassModel::from_urdf(r, text, Path::new("m.urdf")).unwrap();
+    let a = plan(&hoap2, &mass(&hoap2, cpg_hoap2::assets::HOAP2_URDF), &p).unwrap();
+    let b = plan(&twin, &mass(&twin, &urdf), &p).unwrap();
+    assert_eq!(b.joints, a.joints.iter().map(|j| rename(j)).collect::<Vec<_>>());
+    assert_eq!(a.q_rad, b.q_rad);
+    assert_eq!(a.margin_m, b.margin_m);
+    // The URDF alone: mapped onto, not walked.
+    std::fs::remove_file(dir.join("robot.toml")).unwrap();
+    let bare = Robot::from_urdf_file(&dir.join("twin.urdf")).unwrap();
+    let e = plan(&bare, &mass(&bare, &urdf), &p).unwrap_err().to_string();
+    assert!(e.contains("robot.toml"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

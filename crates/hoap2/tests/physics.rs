@@ -7,8 +7,7 @@ use std::path::Path;
 use cpg_hoap2::Robot;
 use cpg_hoap2::assets::{HOAP2_MJCF, HOAP2_URDF};
 use cpg_hoap2::physics::{
-    Contact, HOAP2_SHAPES, HOME_POSE_DEG, MjcfSettings, Shape, box_inertia, centre_of_mass_m, home_pose_rad, mjcf,
-    physical_urdf, standing_height_m,
+    Contact, HOAP2_SHAPES, Shape, box_inertia, centre_of_mass_m, home_pose_rad, mjcf, physical_urdf, standing_height_m,
 };
 
 const PATH: &str = "assets/hoap2/hoap2.urdf";
@@ -21,7 +20,7 @@ fn the_committed_urdf_is_what_the_shape_table_writes() {
 
 #[test]
 fn the_committed_mjcf_is_built_from_the_committed_urdf() {
-    let built = mjcf(HOAP2_URDF, Path::new(PATH), &HOAP2_SHAPES, &MjcfSettings::HOAP2).unwrap();
+    let built = mjcf(HOAP2_URDF, Path::new(PATH), &HOAP2_SHAPES, &cpg_hoap2::RobotSpec::hoap2()).unwrap();
     assert!(built == HOAP2_MJCF, "assets/hoap2/hoap2.xml is stale: run `cargo xtask hoap2-model`");
 }
 
@@ -74,25 +73,27 @@ fn the_soles_are_the_reference_size_and_touch_the_floor() {
     // The soles' bottoms are the lowest points of the home crouch: the
     // keyframe's height puts them on the floor, the soles flat.
     let robot = Robot::hoap2().unwrap();
-    let home = home_pose_rad(&robot);
+    let home = home_pose_rad(&robot).unwrap();
     let all = standing_height_m(&robot, &HOAP2_SHAPES, &home).unwrap();
     let soles_only: Vec<Shape> = HOAP2_SHAPES.iter().filter(|s| s.name.ends_with("sole")).copied().collect();
     let by_soles = standing_height_m(&robot, &soles_only, &home).unwrap();
     assert!((all - by_soles).abs() < 1e-12, "something hangs below the soles: {all} against {by_soles}");
     assert!((0.25..0.30).contains(&all), "trunk origin {all} m high");
-    for side in ["lleg", "rleg"] {
-        let deg = |k: usize| {
-            let name = format!("{side}_joint_{k}");
-            HOME_POSE_DEG.iter().find(|(n, _)| *n == name).map(|(_, d)| *d).unwrap()
-        };
-        assert_eq!(deg(3) + deg(4) + deg(5), 0.0, "the home {side} sole is not flat");
+    let spec = robot.spec().unwrap();
+    for leg in [&spec.legs.left, &spec.legs.right] {
+        let deg = |joint: &str| spec.home_pose_deg.get(joint).copied().unwrap();
+        assert_eq!(
+            deg(&leg.hip_pitch) + deg(&leg.knee) + deg(&leg.ankle_pitch),
+            0.0,
+            "the home sole of {leg:?} is not flat"
+        );
     }
 }
 
 #[test]
 fn the_home_centre_of_mass_is_over_the_soles() {
     let robot = Robot::hoap2().unwrap();
-    let home = home_pose_rad(&robot);
+    let home = home_pose_rad(&robot).unwrap();
     let c = centre_of_mass_m(&robot, HOAP2_URDF, Path::new(PATH), &home).unwrap();
     // The soles' centres in the trunk frame.
     let names: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
@@ -119,7 +120,9 @@ fn a_link_without_a_shape_is_an_error_naming_it() {
     let shapes: Vec<Shape> = HOAP2_SHAPES.iter().filter(|s| s.link != "head").copied().collect();
     let e = physical_urdf(HOAP2_URDF, Path::new(PATH), &shapes).unwrap_err().to_string();
     assert!(e.contains("head") && e.contains(PATH), "{e}");
-    let e = mjcf("<robot", Path::new("broken.urdf"), &HOAP2_SHAPES, &MjcfSettings::HOAP2).unwrap_err().to_string();
+    let e = mjcf("<robot", Path::new("broken.urdf"), &HOAP2_SHAPES, &cpg_hoap2::RobotSpec::hoap2())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("broken.urdf"), "{e}");
 }
 

@@ -447,8 +447,9 @@ impl Default for RetargetOptions {
 
 /// The robot's leg, hip joint to floor with the leg straight, metres.
 pub fn robot_leg_length_m(robot: &Robot) -> Result<f64> {
+    let spec = robot.spec()?;
     let z = |n: &str| robot.joint(n).map(|j| j.origin_m[2]).map_err(Error::from);
-    Ok(-(z("lleg_joint_4")? + z("lleg_joint_5")?) + cpg_hoap2::walk::ANKLE_HEIGHT_M)
+    Ok(-(z(&spec.legs.left.knee)? + z(&spec.legs.left.ankle_pitch)?) + spec.feet.ankle_height_m)
 }
 
 /// The walk's parameters for `robot` from the human's walk.

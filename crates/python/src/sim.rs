@@ -50,7 +50,8 @@ impl WalkLoop {
         *, clock_s, angles_rad, joints, landings, act, lo, hi, gains_json, mass_kg, dt_s, tempo, tempo_at_s,
         sensordata, ctrl, force, velocity, quat_adr, gyro_adr, touch_adr,
         generator=None, drive=None, rate_hz=0.0, handover_s=0.0, first_rad=None, base=None,
-        tempo_input=None, walk_input=None, tempo_ramp_s=3.0, stop_at_s=None, stop_ramp_s=2.0
+        tempo_input=None, walk_input=None, tempo_ramp_s=3.0, stop_at_s=None, stop_ramp_s=2.0,
+        robot="hoap2"
     ))]
     #[allow(clippy::too_many_arguments)] // keyword-only: one run's settings, each named at the call
     fn new(
@@ -84,6 +85,7 @@ impl WalkLoop {
         tempo_ramp_s: f64,
         stop_at_s: Option<f64>,
         stop_ramp_s: f64,
+        robot: &str,
     ) -> PyResult<Self> {
         let gains: Gains = serde_json::from_str(gains_json).map_err(|e| err(format!("gains: {e}")))?;
         let a = angles_rad.as_array();
@@ -122,7 +124,10 @@ impl WalkLoop {
             }
         };
         let names: Vec<&str> = joints.iter().map(String::as_str).collect();
-        let c = WalkController::new(plan, &names, lo, hi, gains, mass_kg, dt_s, tempo, tempo_at_s, nu, driven)
+        // The robot's legs and servos: a built-in name or a robot's folder (its robot.toml).
+        let robot = cpg_hoap2::Robot::from_spec(std::path::Path::new(robot)).map_err(err)?;
+        let spec = robot.spec().map_err(err)?;
+        let c = WalkController::new(plan, spec, &names, lo, hi, gains, mass_kg, dt_s, tempo, tempo_at_s, nu, driven)
             .map_err(err)?;
         Ok(WalkLoop {
             c,

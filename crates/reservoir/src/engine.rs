@@ -271,7 +271,12 @@ impl<R: SimdDot> Engine<R> {
         let mut uu = vec![R::ZERO; u];
         let mut pre_buf = Aligned::zeros(np);
         let pre = pre_buf.as_mut_slice();
+        // A cancelled watch ends the pass early; the caller's `watch::check` then returns the error.
+        let watch = crate::watch::current();
         for k in 0..t {
+            if k.is_multiple_of(crate::watch::CHECK_EVERY_STEPS) && watch.as_ref().is_some_and(|w| w.cancelled()) {
+                return;
+            }
             for (a, b) in y.iter_mut().zip(&teacher[k * d..(k + 1) * d]) {
                 *a = R::from_f64(*b);
             }

@@ -226,6 +226,7 @@ fn states_in<R: SimdDot>(reservoir: &Reservoir, x0: &[f64], seq: &Sequence) -> R
     let x = x.as_mut_slice();
     let mut out = Vec::with_capacity(t * n);
     engine.teacher_force(x, &seq.outputs, &seq.controls, |_, s| out.extend(s.iter().map(|v| v.to_f64())));
+    crate::watch::check()?;
     Ok(out)
 }
 
@@ -382,6 +383,7 @@ pub(crate) fn validate_in<R: SimdDot>(
     let readouts_r: Vec<ReadoutR<R>> = candidates.iter().map(|c| ReadoutR::new(&c.readout)).collect();
     let mut x0 = vec![R::ZERO; np];
     engine.teacher_force(&mut x0, &warmup.outputs, &warmup.controls, |_, _| {});
+    crate::watch::check()?;
 
     // Common random numbers: draw r is the same sequence for every candidate.
     let sigma = settings.noise_variance.sqrt();

@@ -341,6 +341,12 @@ fn a_watch_counts_steps_and_a_cancelled_one_stops_the_work() {
     );
     let settings = TrainSettings { washout: 100, n_noise_draws: 1, ..TrainSettings::wyffels_schrauwen_2009() };
     assert!(matches!(train(&res, &data, &settings), Err(Error::Cancelled)));
+    // Teacher forcing (the harvest's pass over the training data) stops too.
+    let seq = Sequence::outputs_only(sine(800, 0));
+    assert!(matches!(
+        cpg_reservoir::teacher_forced_states(&res, &vec![0.0; res.config().n_neurons], &seq),
+        Err(Error::Cancelled)
+    ));
     set_for_this_thread(None);
     assert!(train(&res, &data, &settings).is_ok(), "without the watch the same training works");
 }

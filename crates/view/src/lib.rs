@@ -144,8 +144,9 @@ impl Figure {
     /// A robot moving as the joint trajectory `t` says (joints it does not
     /// name stay at 0): the root link's origin and every joint's child-link
     /// origin from [`Robot::link_poses`], a segment from each joint's parent
-    /// link to it, and the soles of the HOAP-2's feet
-    /// ([`cpg_hoap2::SOLE_IN_ANKLE_M`] below each leg's last joint).
+    /// link to it, and the soles of its feet where its spec puts them
+    /// (`feet.sole_in_ankle_m` of [`cpg_hoap2::RobotSpec`] below each leg's
+    /// last joint; none for a robot read from a URDF alone).
     ///
     /// The robot is placed kinematically, with no dynamics: in every frame
     /// its lowest point touches the floor, and the body moves horizontally so
@@ -218,14 +219,15 @@ fn robot_figure<'a>(
         .filter(|(_, j)| j.origin_m.iter().any(|v| v.abs() > 1e-9))
         .map(|(k, j)| (parent_point(j), k + 1, Side::of(&j.name)))
         .collect();
-    // The soles: below the last joint of each leg.
-    let leaves: Vec<usize> = (0..robot.joints.len())
-        .filter(|&k| {
-            let j = &robot.joints[k];
-            let leg = j.name.starts_with("lleg") || j.name.starts_with("rleg");
-            leg && !robot.joints.iter().any(|c| c.parent == j.child)
-        })
-        .collect();
+    // The soles: below the last joint of each leg, where the robot's spec puts them (none without a spec).
+    let (mut leaves, sole_in_ankle) = match &robot.spec {
+        Some(spec) => {
+            let last = |leg| cpg_hoap2::spec::leg_chain(robot, leg).map(|c| c[5]);
+            (vec![last(&spec.legs.left)?, last(&spec.legs.right)?], spec.feet.sole_in_ankle_m)
+        }
+        None => (Vec::new(), [0.0; 3]),
+    };
+    leaves.sort_unstable();
     for &k in &leaves {
         names.push(format!("{}_sole", robot.joints[k].child));
         segments.push((k + 1, names.len() - 1, Side::of(&robot.joints[k].name)));
@@ -247,7 +249,7 @@ fn robot_figure<'a>(
         }
         points.extend(poses.iter().map(|p| turn(p * nalgebra::Point3::origin())));
         for &k in &leaves {
-            points.push(turn(poses[k] * nalgebra::Point3::from(cpg_hoap2::SOLE_IN_ANKLE_M)));
+            points.push(turn(poses[k] * nalgebra::Point3::from(sole_in_ankle)));
         }
     }
     Ok(Figure { label: label.to_owned(), note: String::new(), names, segments, points_mm: points })

@@ -528,10 +528,11 @@ fn hoap2_loop(
         .collect::<Vec<_>>()
         .windows(2)
         .fold(0.0f64, |mx, w| w[0].iter().zip(w[1]).fold(mx, |mx, (a, b)| mx.max((b - a).abs())));
-    let sole = cpg_hoap2::SOLE_IN_ANKLE_M;
+    let spec = robot.spec()?;
+    let sole = spec.feet.sole_in_ankle_m;
     let robot_gait = cpg_hoap2::gait(
-        &robot.path(&trajectory, "lleg_joint_6", sole)?,
-        &robot.path(&trajectory, "rleg_joint_6", sole)?,
+        &robot.path(&trajectory, &spec.legs.left.ankle_roll, sole)?,
+        &robot.path(&trajectory, &spec.legs.right.ankle_roll, sole)?,
         rate,
         0,
         2,
