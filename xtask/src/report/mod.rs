@@ -184,15 +184,21 @@ impl Snapshot {
             let idle = v.get(3).copied().unwrap_or(0.0) + v.get(4).copied().unwrap_or(0.0);
             Some((total - idle, total))
         });
-        let ours = std::fs::read_to_string("/proc/self/stat").ok().and_then(|t| {
-            // After the command's name in parentheses: fields 14–17 are utime, stime, cutime, cstime.
-            let rest = t.rsplit_once(')')?.1;
-            let v: Vec<f64> = rest.split_whitespace().filter_map(|x| x.parse().ok()).collect();
-            Some(v.get(11..15)?.iter().sum())
-        });
+        let ours = std::fs::read_to_string("/proc/self/stat").ok().and_then(|t| process_ticks(&t));
         let (busy, total) = machine.unwrap_or((0.0, 0.0));
         Snapshot { busy, total, ours: ours.unwrap_or(0.0) }
     }
+}
+
+/// A process's CPU time with the children it waited for, from its
+/// `/proc/PID/stat` line: fields 14–17 (utime, stime, cutime, cstime),
+/// counted after the command's name in parentheses, whose next field is the
+/// state letter (field 3), in clock ticks.
+fn process_ticks(stat: &str) -> Option<f64> {
+    let rest = stat.rsplit_once(')')?.1;
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    // fields[0] is field 3, so field k is fields[k - 3].
+    fields.get(11..15)?.iter().map(|x| x.parse::<f64>().ok()).sum()
 }
 
 /// A stretch of the run being timed: its wall time, and from the CPU
