@@ -76,9 +76,9 @@ enum Command {
     /// from that URDF) and the derived table of docs/hoap2-model.md. A test checks
     /// that the committed files are what this writes.
     Hoap2Model,
-    /// Build the fuzz targets (ASF, AMC, TOML config, model file, control
-    /// CSV) with the stable toolchain and run each under libFuzzer for a
-    /// bounded time.
+    /// Build the fuzz targets (ASF, AMC, BVH, TOML config, model file,
+    /// control CSV, URDF) with the stable toolchain and run each under
+    /// libFuzzer for a bounded time.
     ///
     /// Needs only what a fresh machine has: cargo, the C++ compiler that
     /// builds libFuzzer (from the libfuzzer-sys crate) and crates.io. An input
@@ -92,7 +92,7 @@ enum Command {
         /// libFuzzer's seed (default: a new one each run).
         #[arg(long)]
         seed: Option<u64>,
-        /// Targets to run (default: all): asf, amc, config, model, control_csv.
+        /// Targets to run (default: all): asf, amc, bvh, config, model, control_csv, urdf.
         targets: Vec<String>,
     },
 }
