@@ -81,7 +81,7 @@ pub fn bvh(data: &[u8]) {
 /// limits, a unit axis and a finite origin, and whose joints can be looked up by name.
 pub fn urdf(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else { return };
-    let Ok(r) = cpg_hoap2::Robot::from_urdf_str(text, Path::new("fuzz.urdf")) else { return };
+    let Ok(r) = cpg_robot::Robot::from_urdf_str(text, Path::new("fuzz.urdf")) else { return };
     for j in &r.joints {
         assert!(j.lower_rad.is_finite() && j.upper_rad.is_finite() && j.lower_rad < j.upper_rad, "{}", j.name);
         let n = j.axis.iter().map(|a| a * a).sum::<f64>().sqrt();

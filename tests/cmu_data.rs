@@ -153,10 +153,10 @@ fn amc_to_bvh_keeps_every_marker_of_35_01() {
 /// joint cycles' shapes.
 #[test]
 fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
-    use cpg_hoap2::Robot;
-    use cpg_hoap2::physics::MassModel;
-    use cpg_hoap2::walk::Support;
     use cpg_lab::retarget::{RetargetOptions, human_walk, retarget};
+    use cpg_robot::Robot;
+    use cpg_robot::physics::MassModel;
+    use cpg_robot::walk::Support;
     let sk = skeleton35();
     let profile = cpg_mocap::profile::Profile::for_skeleton(&sk, None).unwrap();
     assert_eq!(profile.profile, "cmu-asf");
@@ -170,7 +170,7 @@ fn the_retargeted_walk_balances_within_the_limits_and_keeps_the_style() {
     assert!((0.5..0.7).contains(&human.duty_factor), "{human:?}");
     assert!((0.8..1.0).contains(&human.leg_length_m) && (1.1..1.7).contains(&human.stride_length_m), "{human:?}");
     let robot = Robot::hoap2().unwrap();
-    let mass = MassModel::from_urdf(&robot, cpg_hoap2::assets::HOAP2_URDF, std::path::Path::new("hoap2.urdf")).unwrap();
+    let mass = MassModel::from_urdf(&robot, cpg_robot::assets::HOAP2_URDF, std::path::Path::new("hoap2.urdf")).unwrap();
     let (params, plan, style) = retarget(&human, &robot, &mass, &RetargetOptions::default()).unwrap();
     assert!((params.stride_period_s - human.stride_period_s).abs() < 1e-12, "the human's tempo is kept");
     assert!(plan.ik_residual_m < 1e-6, "IK residual {} m", plan.ik_residual_m);

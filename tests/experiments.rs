@@ -341,7 +341,7 @@ fn the_whole_body_walks_and_runs_like_trials_it_never_saw() {
     assert_eq!(r.teachers, ["stand", "walk", "run"]);
     assert!(r.header.notes.iter().any(|n| n.starts_with("6 channel(s) never move")), "{:?}", r.header.notes);
     let trials: Vec<usize> = r.held_out.iter().map(|g| g.trials.len()).collect();
-    assert_eq!(trials, [7, 3], "35_07–35_13 walking, 35_21–35_23 running");
+    assert_eq!(trials, [7, 3], "35_02, 04, 06, 08, 10, 12, 13 walking; 35_18, 21, 23 running");
     assert_eq!(r.switch_at_s.len(), 4);
     for g in &r.held_out {
         assert!(g.spread > 0.5 && g.spread < 10.0, "{}: the trials' spread {:.2}°", g.teacher, g.spread);
@@ -351,6 +351,22 @@ fn the_whole_body_walks_and_runs_like_trials_it_never_saw() {
     // Travel is carried by the stance foot: a figure whose feet stand still does not travel.
     for s in &r.seeds {
         assert!(s.stand.travel_mm <= 20.0, "seed {}: standing travelled {:.1} mm", s.model.seed, s.stand.travel_mm);
+    }
+    // The feet's cleanup plants every foot that comes down: no stance slides more than the
+    // recorded trials' own largest slide, whatever the generator's legs did (both reported).
+    for s in &r.seeds {
+        for w in &s.switches {
+            let (slide, raw) = (w.slide_mm.expect("feet"), w.raw_slide_mm.expect("feet"));
+            assert!(
+                slide <= r.slide_limit_mm(),
+                "seed {} {} → {}: {slide:.0} mm after the cleanup ({raw:.0} mm before), the trials {:.0} mm",
+                s.model.seed,
+                w.from,
+                w.to,
+                r.slide_limit_mm()
+            );
+            assert!(w.cleanup_deg.is_some_and(|v| v.is_finite() && v >= 0.0));
+        }
     }
     // The training sequence's switches are time-warped, not blended: its own feet stay planted
     // (within the recorded trials' own largest slide).

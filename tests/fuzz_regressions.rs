@@ -83,7 +83,7 @@ fn seeds_are_valid_inputs() {
     }
     for p in inputs("seeds", "urdf") {
         let text = std::fs::read_to_string(&p).unwrap();
-        cpg_hoap2::Robot::from_urdf_str(&text, &p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        cpg_robot::Robot::from_urdf_str(&text, &p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     }
 }
 

@@ -1,11 +1,12 @@
 //! `cargo xtask hoap2-model`: writes the HOAP-2's physical model from
-//! cpg-hoap2's shape table (the URDF's links, the MJCF, the doc's table).
+//! the shapes of its spec, `assets/hoap2/robot.toml` (the URDF's links, the
+//! MJCF, the doc's table).
 
 use std::path::Path;
 
 use anyhow::Context as _;
-use cpg_hoap2::RobotSpec;
-use cpg_hoap2::physics::{HOAP2_SHAPES, derivation_markdown, mjcf, physical_urdf};
+use cpg_robot::RobotSpec;
+use cpg_robot::physics::{derivation_markdown, mjcf, physical_urdf};
 
 /// The markers around the generated part of docs/hoap2-model.md.
 pub const BEGIN: &str = "<!-- begin: written by `cargo xtask hoap2-model` -->\n";
@@ -14,10 +15,10 @@ pub const END: &str = "<!-- end: written by `cargo xtask hoap2-model` -->\n";
 /// The three files' new texts from the URDF's current text.
 pub fn texts(urdf_now: &str, doc_now: &str) -> anyhow::Result<(String, String, String)> {
     let path = Path::new("assets/hoap2/hoap2.urdf");
-    let urdf = physical_urdf(urdf_now, path, &HOAP2_SHAPES)?;
     let spec = RobotSpec::hoap2();
-    let xml = mjcf(&urdf, path, &HOAP2_SHAPES, &spec)?;
-    let table = derivation_markdown(&urdf, path, &HOAP2_SHAPES, &spec)?;
+    let urdf = physical_urdf(urdf_now, path, &spec.shapes)?;
+    let xml = mjcf(&urdf, path, &spec.shapes, &spec)?;
+    let table = derivation_markdown(&urdf, path, &spec.shapes, &spec)?;
     let (Some(b), Some(e)) = (doc_now.find(BEGIN), doc_now.find(END)) else {
         anyhow::bail!("docs/hoap2-model.md: the markers {BEGIN:?} and {END:?} are missing");
     };

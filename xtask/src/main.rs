@@ -71,7 +71,7 @@ enum Command {
     /// of each process.
     Bench(bench::Args),
     /// Write the HOAP-2's physical model: assets/hoap2/hoap2.urdf (each link's
-    /// centre of mass, inertia and collision box from cpg-hoap2's shape table,
+    /// centre of mass, inertia and collision box from cpg-robot's shape table,
     /// the joints and masses kept), assets/hoap2/hoap2.xml (the MuJoCo scene built
     /// from that URDF) and the derived table of docs/hoap2-model.md. A test checks
     /// that the committed files are what this writes.

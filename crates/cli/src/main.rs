@@ -1,7 +1,7 @@
 //! `cpg`: learn rhythmic motion from motion capture and play it back as a
 //! central pattern generator. This binary is glue: it parses arguments and
 //! calls the library crates (`cpg-lab` for training, control schedules and
-//! measures; `cpg-mocap`, `cpg-reservoir`, `cpg-hoap2` below it).
+//! measures; `cpg-mocap`, `cpg-reservoir`, `cpg-robot` below it).
 
 mod commands;
 mod output;
@@ -385,7 +385,7 @@ struct RobotArgs {
     map: PathBuf,
     /// The acceleration bound every joint is kept within, rad/s² (the
     /// HOAP-2 documents give none; this default is ours).
-    #[arg(long, default_value_t = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)]
+    #[arg(long, default_value_t = cpg_robot::DEFAULT_ACCELERATION_RAD_S2)]
     acceleration_rad_s2: f64,
 }
 

@@ -170,7 +170,7 @@ fn example_config_trains_generates_and_drives_hoap2() {
     assert!(header[1..23].iter().all(|h| h.ends_with("_rad")));
     // 2 s at 1 kHz is 2000 rows.
     assert_eq!(lines.len() - 1, 2000);
-    let robot = cpg_hoap2::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
+    let robot = cpg_robot::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
     for l in &lines[1..] {
         for (h, v) in header[1..23].iter().zip(l.split(',').skip(1)) {
             let j = robot.joint(h.trim_end_matches("_rad")).unwrap();

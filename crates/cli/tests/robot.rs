@@ -67,7 +67,7 @@ fn hoap2_trajectories_have_exact_rows_and_keep_every_limit() {
         csv.as_os_str(),
     ]));
     assert!(err.contains("wrote 5000 frames") && err.contains("speed asked"), "{err}");
-    let robot = cpg_hoap2::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
+    let robot = cpg_robot::Robot::from_urdf_file(&repo().join("assets/hoap2/hoap2.urdf")).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -93,7 +93,7 @@ fn hoap2_trajectories_have_exact_rows_and_keep_every_limit() {
                     fastest = fastest.max(r[c].abs());
                 }
                 _ => {
-                    assert!(r[c].abs() <= cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 + 1e-3, "{h} = {}", r[c]);
+                    assert!(r[c].abs() <= cpg_robot::DEFAULT_ACCELERATION_RAD_S2 + 1e-3, "{h} = {}", r[c]);
                     hardest = hardest.max(r[c].abs());
                 }
             }

@@ -475,7 +475,7 @@ fn hostile_joint_names_are_text_and_the_page_still_runs() {
 #[test]
 fn a_simulated_run_is_shown_where_the_physics_put_the_body() {
     let dir = tempfile::tempdir().unwrap();
-    let robot = cpg_hoap2::Robot::hoap2().unwrap();
+    let robot = cpg_robot::Robot::hoap2().unwrap();
     let joints: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
     // The trunk walks 0.1 m forward in 2 s (50 Hz), a knee bent.
     let poses: Vec<Vec<f64>> = (0..100)

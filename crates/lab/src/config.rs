@@ -102,6 +102,9 @@ pub struct DataSection {
     /// Largest seam excess of a loop (in standard deviations) accepted.
     #[serde(default = "default_seam")]
     pub max_seam_excess: f64,
+    /// How each channel is scaled for learning ([`Normalise`]).
+    #[serde(default, skip_serializing_if = "Normalise::is_total")]
+    pub normalise: Normalise,
     /// Play one segment's loop at a smoothly varying rate set by a control input.
     pub tempo: Option<TempoSection>,
     /// Learn the HOAP-2's walk retargeted from these human trials instead of
@@ -421,6 +424,28 @@ impl std::str::FromStr for Protocol {
 impl std::fmt::Display for Protocol {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.as_str())
+    }
+}
+
+/// `data.normalise`: the standard deviation each channel is divided by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Normalise {
+    /// The paper's: its standard deviation over all the data.
+    #[default]
+    Total,
+    /// Its standard deviation within each segment, pooled (each segment's
+    /// own mean taken out): a channel whose mean differs between gaits (a
+    /// hand held higher in a walk than in a run) is scaled by its rhythm,
+    /// not by the gap, so every channel's rhythm weighs alike in the
+    /// regression, its penalty and the teacher's noise.
+    Rhythm,
+}
+
+impl Normalise {
+    /// The paper's scaling.
+    pub fn is_total(&self) -> bool {
+        *self == Normalise::Total
     }
 }
 

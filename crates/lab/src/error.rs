@@ -98,7 +98,7 @@ pub enum Error {
     Dmp(#[from] cpg_dmp::Error),
     /// From the HOAP-2 layer.
     #[error(transparent)]
-    Hoap2(#[from] cpg_hoap2::Error),
+    Hoap2(#[from] cpg_robot::Error),
 }
 
 fn config_message(file: &std::path::Path, line: Option<usize>, field: &str, message: &str) -> String {

@@ -11,9 +11,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use cpg_hoap2::JointTrajectory;
 use cpg_mocap::{Motion, Positions, Skeleton};
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::JointTrajectory;
 
 use crate::error::{Error, Result};
 use crate::run::{Run, is_rotation};

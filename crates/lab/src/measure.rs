@@ -628,47 +628,6 @@ pub fn foot_slide_mm(pos: &cpg_mocap::Positions, from: usize, to: usize, feet: &
     worst
 }
 
-/// `pos` (world positions, mm) carried by the travel its feet imply instead
-/// of its root's own: at each frame the lower point of `feet` (above its
-/// floor in `floors`), when on the ground (within [`CONTACT_MM`]), stays
-/// where it is until the next frame; with neither foot on the ground (a
-/// run's flight) the figure keeps the last step's travel. The root's height
-/// and the figure's start are kept. [`foot_slide_mm`] of the result is the
-/// slide the legs cause whatever travel a generator learnt: one foot dragged
-/// or pushed while the other bears the weight.
-pub fn stance_led(pos: &cpg_mocap::Positions, feet: &[String], floors: &[f64]) -> cpg_mocap::Positions {
-    let n = pos.names.len();
-    let feet: Vec<(usize, f64)> =
-        feet.iter().zip(floors).filter_map(|(name, &floor)| pos.point_index(name).map(|i| (i, floor))).collect();
-    // A point relative to the root's horizontal place (the root's own travel taken out).
-    let root = pos.point_index("root");
-    let rel = |k: usize, i: usize| {
-        let (p, r) = (pos.points_mm[k * n + i], root.map_or([0.0; 3], |r| pos.points_mm[k * n + r]));
-        [p[0] - r[0], p[1], p[2] - r[2]]
-    };
-    let mut out = pos.clone();
-    let start = root.map_or([0.0; 3], |r| pos.points_mm[r]);
-    let (mut shift, mut step) = ([start[0], start[2]], [0.0f64; 2]);
-    for k in 0..pos.n_frames() {
-        for (i, p) in out.points_mm[k * n..(k + 1) * n].iter_mut().enumerate() {
-            let r = rel(k, i);
-            *p = [r[0] + shift[0], r[1], r[2] + shift[1]];
-        }
-        if k + 1 == pos.n_frames() {
-            break;
-        }
-        let lower = feet.iter().map(|&(i, floor)| (i, rel(k, i)[1] - floor)).min_by(|a, b| a.1.total_cmp(&b.1));
-        if let Some((i, h)) = lower
-            && h <= CONTACT_MM
-        {
-            let (a, b) = (rel(k, i), rel(k + 1, i));
-            step = [a[0] - b[0], a[2] - b[2]];
-        }
-        shift = [shift[0] + step[0], shift[1] + step[1]];
-    }
-    out
-}
-
 /// The floor of each point of `feet`: the [`FLOOR_QUANTILE`]
 /// of its heights over every frame of `positions` (recorded rhythm trials), mm.
 pub fn floors(positions: &[cpg_mocap::Positions], feet: &[String]) -> Vec<f64> {
@@ -688,43 +647,6 @@ pub fn floors(positions: &[cpg_mocap::Positions], feet: &[String]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn cmu_feet() -> Vec<String> {
-        FEET.iter().map(|f| (*f).to_owned()).collect()
-    }
-
-    /// Two feet (and the root) over `frames`; `feet(k)` gives each foot's
-    /// (x, y) relative to the root, which travels 7 mm a frame of its own
-    /// (a travel `stance_led` replaces).
-    fn walker(frames: usize, feet: impl Fn(usize) -> [[f64; 2]; 2]) -> cpg_mocap::Positions {
-        let names = vec!["root".to_owned(), FEET[0].to_owned(), FEET[1].to_owned()];
-        let points_mm = (0..frames)
-            .flat_map(|k| {
-                let (f, x) = (feet(k), 7.0 * k as f64);
-                [[x, 900.0, 0.0], [x + f[0][0], f[0][1], 0.0], [x + f[1][0], f[1][1], 0.0]]
-            })
-            .collect();
-        cpg_mocap::Positions { names, points_mm, sample_rate_hz: 100.0 }
-    }
-
-    #[test]
-    fn the_feet_carry_the_figure_and_a_dragged_foot_still_slides() {
-        // The left foot bears the weight and sweeps back 5 mm a frame; the
-        // right swings forward above the ground: led by the feet, nothing slides.
-        let step = walker(40, |k| [[100.0 - 5.0 * k as f64, 0.0], [-100.0 + 10.0 * k as f64, 50.0]]);
-        let led = stance_led(&step, &cmu_feet(), &[0.0, 0.0]);
-        assert!(foot_slide_mm(&led, 0, 40, &cmu_feet(), &[0.0, 0.0]) < 1e-9);
-        assert!((led.points_mm[39 * 3][0] - 5.0 * 39.0).abs() < 1e-9, "the root travelled 195 mm");
-        // A shuffle: both feet on the ground, the right (2 mm higher) pushed
-        // forward 5 mm a frame while the left stays: the right slides 195 mm.
-        let shuffle = walker(40, |k| [[0.0, 0.0], [5.0 * k as f64, 2.0]]);
-        let led = stance_led(&shuffle, &cmu_feet(), &[0.0, 0.0]);
-        assert!((foot_slide_mm(&led, 0, 40, &cmu_feet(), &[0.0, 0.0]) - 195.0).abs() < 1e-9);
-        // In a flight the figure keeps its last step's travel.
-        let flight = walker(20, |k| [[-3.0 * k as f64, if k < 10 { 0.0 } else { 80.0 }], [0.0, 80.0]]);
-        let led = stance_led(&flight, &cmu_feet(), &[0.0, 0.0]);
-        assert!((led.points_mm[19 * 3][0] - 3.0 * 19.0).abs() < 1e-9);
-    }
 
     #[test]
     fn a_run_that_returns_and_leaves_again_has_not_recovered() {

@@ -284,9 +284,9 @@ fn retargeted(c: &Config, r: &crate::config::RetargetSection) -> Result<Recorded
         trials.push((rec.skeleton.forward_kinematics(&rec.motion)?, points));
     }
     let human = human_walk(&trials)?;
-    let robot = cpg_hoap2::Robot::hoap2()?;
+    let robot = cpg_robot::Robot::hoap2()?;
     let mass =
-        cpg_hoap2::physics::MassModel::from_urdf(&robot, cpg_hoap2::assets::HOAP2_URDF, Path::new("hoap2.urdf"))?;
+        cpg_robot::physics::MassModel::from_urdf(&robot, cpg_robot::assets::HOAP2_URDF, Path::new("hoap2.urdf"))?;
     let mut parts = Vec::with_capacity(c.data.segments.len());
     for (k, s) in c.data.segments.iter().enumerate() {
         let o = RetargetOptions {
@@ -404,7 +404,10 @@ fn select(c: &Config, rec: &Recorded) -> Result<Read> {
         channels[k].push_str(cpg_reservoir::VELOCITY_SUFFIX);
     }
     let all = parts.iter().skip(1).try_fold(parts[0].clone(), |acc, m| acc.concat(m))?;
-    let (z, still) = ZScore::fit_holding_still(&all);
+    let (mut z, still) = ZScore::fit_holding_still(&all);
+    if d_sec.normalise == crate::config::Normalise::Rhythm {
+        rhythm_std(&parts, &still, &mut z.std);
+    }
     let still = still.into_iter().map(|k| channels[k].clone()).collect();
     let labels = d_sec
         .segments
@@ -574,7 +577,11 @@ fn loops(
                 ),
             });
         }
-        let cycle = x[lp.start * d..(lp.start + lp.len) * d].to_vec();
+        let mut cycle = x[lp.start * d..(lp.start + lp.len) * d].to_vec();
+        if d_sec.segments[k].group.is_some() {
+            // Averaged with the group's other trials at their own phases, the seam would stay a jump.
+            cycle = closed_seam(&cycle, d);
+        }
         loops.push(if d_sec.morph_s > 0.0 { rotate_to_max(&cycle, d) } else { cycle });
         cycles.push(SegmentCycle {
             label: label.clone(),
@@ -650,12 +657,35 @@ fn teachers_of(c: &Config, labels: &[String], loops: &[Vec<f64>], d: usize, note
         }
         let widest = scales.iter().copied().fold(1.0, f64::max);
         notes.push(format!(
-            "group {g}: {} trials (periods {}–{} frames) averaged into one cycle of {len} frames, each channel's swing scaled to the trials' median half range (by up to {widest:.2}×)",
+            "group {g}: {} trials (periods {}–{} frames), each loop closed at its seam, averaged into one cycle of {len} frames, each channel's swing scaled to the trials' median half range (by up to {widest:.2}×)",
             members.len(),
             periods[0],
             periods[periods.len() - 1]
         ));
         out.push(Teacher { label: g.clone(), controls: s.controls.clone(), cycle: mean, rate: 1.0 });
+    }
+    out
+}
+
+/// A loop (`p × d`) whose seam is closed: each channel's step from its
+/// last frame back to its first made the mean of the steps beside it (the
+/// first and the last), the difference spread linearly over the loop. A
+/// trial's loop cut from a short recording (a run's 1.8 strides) jumps at
+/// its seam; averaged with others at another phase, each jump would stay a
+/// step faster than the person ever moved.
+fn closed_seam(l: &[f64], d: usize) -> Vec<f64> {
+    let p = l.len() / d.max(1);
+    let mut out = l.to_vec();
+    if p < 3 {
+        return out;
+    }
+    for ch in 0..d {
+        let at = |k: usize| l[k * d + ch];
+        let expected = 0.5 * ((at(1) - at(0)) + (at(p - 1) - at(p - 2)));
+        let excess = (at(0) - at(p - 1)) - expected;
+        for k in 0..p {
+            out[k * d + ch] += excess * k as f64 / (p - 1) as f64;
+        }
     }
     out
 }
@@ -1016,6 +1046,35 @@ fn recorded_sequences(c: &Config, r: &Read, notes: &mut Vec<String>) -> Result<S
     })
 }
 
+/// Each channel's standard deviation within the segments `parts`, pooled
+/// (each segment's own mean taken out), written into `std` for every
+/// channel that moves within a segment and is not among `still`.
+fn rhythm_std(parts: &[Motion], still: &[usize], std: &mut [f64]) {
+    let n = std.len();
+    let (mut var, mut count) = (vec![0.0; n], 0.0);
+    for p in parts {
+        let t = p.n_frames() as f64;
+        let mut mean = vec![0.0; n];
+        for f in 0..p.n_frames() {
+            for (s, v) in mean.iter_mut().zip(p.frame(f)) {
+                *s += v / t;
+            }
+        }
+        for f in 0..p.n_frames() {
+            for ((s, v), mu) in var.iter_mut().zip(p.frame(f)).zip(&mean) {
+                *s += (v - mu) * (v - mu);
+            }
+        }
+        count += t;
+    }
+    for (k, v) in var.iter().enumerate() {
+        let sd = (v / count).sqrt();
+        if !still.contains(&k) && sd > 1e-12 * (1.0 + std[k]) {
+            std[k] = sd;
+        }
+    }
+}
+
 /// Reads, normalises and loops the data of a configuration.
 pub fn prepare(c: &Config) -> Result<Prepared> {
     prepare_recorded(c, read_recorded(c)?)
@@ -1289,6 +1348,34 @@ model = "m.cpg"
             "{:?}",
             p.notes
         );
+    }
+
+    #[test]
+    fn a_closed_seam_steps_like_its_neighbours_and_a_rhythm_is_scaled_by_itself() {
+        // A ramp 0, 1, …, 9 looped jumps −9 at its seam; closed, its seam steps +1 as its
+        // first and last steps did, the −10 spread over the loop.
+        let ramp: Vec<f64> = (0..10).map(f64::from).collect();
+        let c = closed_seam(&ramp, 1);
+        assert!((c[0] - c[9] - 1.0).abs() < 1e-12, "{c:?}");
+        assert_eq!(c[0], 0.0, "the first frame is kept");
+        assert!((c[9] - (-1.0)).abs() < 1e-12, "{c:?}");
+        // A loop already seamless is left as it is.
+        let sine: Vec<f64> = (0..40).map(|k| (2.0 * PI * k as f64 / 40.0).sin()).collect();
+        let s = closed_seam(&sine, 1);
+        assert!(s.iter().zip(&sine).all(|(a, b)| (a - b).abs() < 5e-3), "a smooth loop barely moves");
+        // Two segments: a channel swinging ±1 about 10 in one and about −10 in the other.
+        let ch = |s: &str| Channel::parse(s).unwrap();
+        let part = |centre: f64| {
+            let v: Vec<f64> = (0..100).map(|k| centre + (2.0 * PI * k as f64 / 20.0).sin()).collect();
+            Motion::new(vec![ch("a.rx")], v, 100.0).unwrap()
+        };
+        let parts = [part(10.0), part(-10.0)];
+        let all = parts[0].concat(&parts[1]).unwrap();
+        let (z, still) = ZScore::fit_holding_still(&all);
+        assert!(z.std[0] > 9.0, "the total standard deviation is the gap's: {}", z.std[0]);
+        let mut std = z.std.clone();
+        rhythm_std(&parts, &still, &mut std);
+        assert!((std[0] - 0.5f64.sqrt()).abs() < 1e-9, "the rhythm's own: {}", std[0]);
     }
 
     #[test]

@@ -2,14 +2,14 @@
 //! (stride period, double support, the swing foot's lift and progress over
 //! the swing, the stride in leg lengths, the arms' swing), measured from the
 //! forward kinematics of recorded trials, and the robot's walk planned from
-//! it by [`cpg_hoap2::walk`] (ZMP preview control, inverse kinematics).
+//! it by [`cpg_robot::walk`] (ZMP preview control, inverse kinematics).
 //! [`style`] says how much of the human's joint cycles the robot keeps.
 
-use cpg_hoap2::Robot;
-use cpg_hoap2::physics::MassModel;
-use cpg_hoap2::walk::{WalkParams, WalkPlan};
 use cpg_mocap::Positions;
 use cpg_mocap::profile::{Resolved, SidePoints};
+use cpg_robot::Robot;
+use cpg_robot::physics::MassModel;
+use cpg_robot::walk::{WalkParams, WalkPlan};
 
 use crate::{Error, Result};
 
@@ -65,7 +65,7 @@ fn cyclic(v: &[f64], s: f64) -> f64 {
 
 /// `v` resampled to `n` points from its first to its last, linear.
 fn resample(v: &[f64], n: usize) -> Vec<f64> {
-    (0..n).map(|k| cpg_hoap2::walk::sample(v, k as f64 / (n - 1) as f64)).collect()
+    (0..n).map(|k| cpg_robot::walk::sample(v, k as f64 / (n - 1) as f64)).collect()
 }
 
 /// The sagittal angle of segment `a → b` from the downward vertical, positive forward, degrees.
@@ -617,7 +617,7 @@ pub fn check_plan(plan: &WalkPlan, robot: &Robot) -> PlanChecks {
         }
     }
     let single: Vec<f64> =
-        (0..n).filter(|&f| plan.support[f] != cpg_hoap2::walk::Support::Double).map(|f| plan.margin_m[f]).collect();
+        (0..n).filter(|&f| plan.support[f] != cpg_robot::walk::Support::Double).map(|f| plan.margin_m[f]).collect();
     PlanChecks {
         outside_limits: outside,
         fastest_joint: fastest,
@@ -634,7 +634,7 @@ pub fn retarget(
     o: &RetargetOptions,
 ) -> Result<(WalkParams, WalkPlan, Vec<StyleRow>)> {
     let p = walk_params(human, robot, o)?;
-    let plan = cpg_hoap2::walk::plan(robot, mass, &p)?;
+    let plan = cpg_robot::walk::plan(robot, mass, &p)?;
     let s = style(human, &plan);
     Ok((p, plan, s))
 }

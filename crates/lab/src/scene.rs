@@ -3,9 +3,9 @@
 //! timeline. This module builds the scene; rendering it (HTML, GIF) is
 //! `cpg_view`'s.
 
-use cpg_hoap2::{ChannelMap, Robot};
 use cpg_mocap::{Channel, Motion, Skeleton};
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, Robot};
 use cpg_view::{Figure, Scene};
 
 use crate::error::{Error, Result};

@@ -8,8 +8,8 @@
 //! its position range, its velocity limit and the acceleration bound by a
 //! braking [`Limiter`]. A tick allocates nothing.
 
-use cpg_hoap2::{ChannelMap, LimitCounts, Limiter, MapPlan, Robot};
 use cpg_reservoir::{Generator, TrainedCpg};
+use cpg_robot::{ChannelMap, LimitCounts, Limiter, MapPlan, Robot};
 
 use crate::error::{Error, Result};
 
@@ -51,11 +51,11 @@ impl Ticker {
     /// A ticker at the model's start state. `rate_hz` is the tick rate
     /// (1 Hz to 10 kHz); with `robot`, ticks are joint angles.
     pub fn new(m: &TrainedCpg, rate_hz: f64, robot: Option<RobotTarget<'_>>) -> Result<Ticker> {
-        if !(rate_hz.is_finite() && (cpg_hoap2::MIN_RATE_HZ..=cpg_hoap2::MAX_RATE_HZ).contains(&rate_hz)) {
+        if !(rate_hz.is_finite() && (cpg_robot::MIN_RATE_HZ..=cpg_robot::MAX_RATE_HZ).contains(&rate_hz)) {
             return Err(Error::Bound(format!(
                 "tick rate {rate_hz} Hz: expected {} to {} Hz",
-                cpg_hoap2::MIN_RATE_HZ,
-                cpg_hoap2::MAX_RATE_HZ
+                cpg_robot::MIN_RATE_HZ,
+                cpg_robot::MAX_RATE_HZ
             )));
         }
         let joints = match robot {
@@ -173,7 +173,7 @@ pub fn joint_trajectory(
     seconds: f64,
     rate_hz: Option<f64>,
     target: RobotTarget<'_>,
-) -> Result<cpg_hoap2::JointTrajectory> {
+) -> Result<cpg_robot::JointTrajectory> {
     let names: Vec<String> = m.outputs.iter().map(|o| o.unit_name().to_owned()).collect();
     let missing: Vec<&str> = target.map.channels().into_iter().filter(|c| !names.iter().any(|n| n == c)).collect();
     if !missing.is_empty() {
@@ -192,12 +192,12 @@ pub fn joint_trajectory(
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err(Error::Bound(format!("{seconds} s: expected a positive duration")));
     }
-    let n_out = cpg_hoap2::JointTrajectory::check_rate(out_rate, seconds, target.map.entries.len())?;
+    let n_out = cpg_robot::JointTrajectory::check_rate(out_rate, seconds, target.map.entries.len())?;
     let n = (seconds * rate).round() as usize;
-    if n == 0 || n.saturating_mul(d) > cpg_hoap2::MAX_VALUES {
+    if n == 0 || n.saturating_mul(d) > cpg_robot::MAX_VALUES {
         return Err(Error::Bound(format!(
             "{seconds} s at {rate} Hz: expected at least one step and at most {} values",
-            cpg_hoap2::MAX_VALUES
+            cpg_robot::MAX_VALUES
         )));
     }
     // Two frames more than asked, so that the spline reaches the last output row.

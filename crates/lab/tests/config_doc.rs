@@ -63,6 +63,7 @@ fn trace<T: serde::de::DeserializeOwned>(root: &str) -> Vec<String> {
     tracer.trace_simple_type::<cpg_reservoir::Preset>().unwrap();
     tracer.trace_simple_type::<cpg_lab::config::Protocol>().unwrap();
     tracer.trace_simple_type::<cpg_lab::config::ScoreKind>().unwrap();
+    tracer.trace_simple_type::<cpg_lab::config::Normalise>().unwrap();
     tracer.trace_simple_type::<cpg_lab::config::Trainer>().unwrap();
     tracer.trace_type::<T>(&Samples::new()).unwrap();
     let registry = tracer.registry().unwrap();

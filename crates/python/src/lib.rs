@@ -39,6 +39,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_segments, m)?)?;
     m.add_function(wrap_pyfunction!(hoap2_urdf, m)?)?;
     m.add_function(wrap_pyfunction!(hoap2_mjcf, m)?)?;
+    m.add_function(wrap_pyfunction!(_robot_scene, m)?)?;
     m.add_function(wrap_pyfunction!(robot_joints, m)?)?;
     m.add_function(wrap_pyfunction!(map_hoap2, m)?)?;
     m.add_function(wrap_pyfunction!(_model_from_bytes, m)?)?;
@@ -47,7 +48,7 @@ fn _cpg(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_check_output, m)?)?;
     m.add_function(wrap_pyfunction!(_write_output, m)?)?;
     m.add_function(wrap_pyfunction!(_read_bounded, m)?)?;
-    m.add("DEFAULT_ACCELERATION_RAD_S2", cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2)?;
+    m.add("DEFAULT_ACCELERATION_RAD_S2", cpg_robot::DEFAULT_ACCELERATION_RAD_S2)?;
     m.add("SPLIT_MIN_NEURONS", SPLIT_MIN_NEURONS)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -2,10 +2,10 @@
 //! and HOAP-2 commands (all through `cpg_lab::run`, `cpg_lab::measure`,
 //! `cpg_lab::stream` and `cpg_lab::fit`).
 
-use cpg_hoap2::{ChannelMap, Robot as UrdfRobot};
 use cpg_lab::run::Controls;
 use cpg_lab::{Config, ControlSchedule};
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, Robot as UrdfRobot};
 use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -309,7 +309,7 @@ impl Model {
     }
 }
 
-pub(crate) fn trajectory_dict<'py>(py: Python<'py>, t: &cpg_hoap2::JointTrajectory) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn trajectory_dict<'py>(py: Python<'py>, t: &cpg_robot::JointTrajectory) -> PyResult<Bound<'py, PyDict>> {
     let (n, j) = (t.n_frames(), t.joints.len());
     let d = PyDict::new(py);
     d.set_item("joints", t.joints.clone())?;

@@ -13,7 +13,7 @@ use crate::model::*;
 /// The HOAP-2 URDF the package carries (the project's `assets/hoap2/hoap2.urdf`).
 #[pyfunction]
 pub(crate) fn hoap2_urdf() -> &'static str {
-    cpg_hoap2::assets::HOAP2_URDF
+    cpg_robot::assets::HOAP2_URDF
 }
 
 /// The HOAP-2 as a MuJoCo scene (the project's `assets/hoap2/hoap2.xml`):
@@ -22,7 +22,46 @@ pub(crate) fn hoap2_urdf() -> &'static str {
 /// Load it with `mujoco.MjModel.from_xml_string(cpg.hoap2_mjcf())`.
 #[pyfunction]
 pub(crate) fn hoap2_mjcf() -> &'static str {
-    cpg_hoap2::assets::HOAP2_MJCF
+    cpg_robot::assets::HOAP2_MJCF
+}
+
+/// The most bytes of a robot's MuJoCo scene read.
+const MAX_MJCF_BYTES: u64 = 64 << 20;
+
+/// A robot's scene as the simulator needs it: `name`, `title`, `mjcf` (the
+/// MuJoCo scene's text), `mjcf_path` (its file, for a robot's folder, so
+/// that meshes beside it load; `None` for a built-in robot), `trunk` (the
+/// URDF's root link, the body the simulator follows), the sensors' names
+/// (`imu_quat`, `imu_gyro`, `touch`: left then right) and `leg_m` (hip to
+/// floor with the leg straight, to 0.1 mm). `robot`: a built-in name
+/// (`hoap2`) or a robot's folder (its `robot.toml`).
+#[pyfunction]
+pub(crate) fn _robot_scene<'py>(py: Python<'py>, robot: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let r = cpg_robot::Robot::from_spec(&robot).map_err(err)?;
+    let spec = r.spec().map_err(err)?;
+    let builtin = robot.as_os_str() == "hoap2";
+    let (mjcf, mjcf_path) = if builtin {
+        (cpg_robot::assets::HOAP2_MJCF.to_owned(), None)
+    } else {
+        let dir = if robot.is_dir() { robot.clone() } else { robot.parent().map(PathBuf::from).unwrap_or_default() };
+        let path = cpg_robot::RobotSpec::path_in(&dir, &spec.mjcf);
+        let bytes = cpg_io::read_bounded(&path, MAX_MJCF_BYTES).map_err(|e| err(format!("{}: {e}", path.display())))?;
+        let text = String::from_utf8(bytes).map_err(|_| err(format!("{}: not UTF-8 text", path.display())))?;
+        (text, Some(path))
+    };
+    let leg = cpg_lab::retarget::robot_leg_length_m(&r).map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("name", &spec.name)?;
+    d.set_item("title", &spec.title)?;
+    d.set_item("mjcf", mjcf)?;
+    d.set_item("mjcf_path", mjcf_path)?;
+    let trunk = r.joints.iter().map(|j| j.parent.as_str()).find(|p| !r.joints.iter().any(|j| j.child == *p));
+    d.set_item("trunk", trunk)?;
+    d.set_item("imu_quat", &spec.sensors.imu_quat)?;
+    d.set_item("imu_gyro", &spec.sensors.imu_gyro)?;
+    d.set_item("touch", spec.sensors.touch.to_vec())?;
+    d.set_item("leg_m", (leg * 1e4).round() / 1e4)?;
+    Ok(d)
 }
 
 /// The HOAP-2 joints of a URDF (default: the package's): name, parent and
@@ -73,4 +112,4 @@ pub(crate) fn map_hoap2<'py>(
 }
 
 // The signatures' literal default (100.0, shown by help()) is the library's bound.
-const _: () = assert!(cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 == 100.0);
+const _: () = assert!(cpg_robot::DEFAULT_ACCELERATION_RAD_S2 == 100.0);

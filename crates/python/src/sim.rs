@@ -1,7 +1,7 @@
 //! `_WalkLoop`: `cpg.sim`'s controller, one call before and one after each
-//! MuJoCo step (`cpg_hoap2::control` on MjData's own arrays).
+//! MuJoCo step (`cpg_robot::control` on MjData's own arrays).
 
-use cpg_hoap2::control::{Drive, Driven, Gains, Plan, Schedule, Sensors, WalkController};
+use cpg_robot::control::{Drive, Driven, Gains, Plan, Schedule, Sensors, WalkController};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
@@ -125,7 +125,7 @@ impl WalkLoop {
         };
         let names: Vec<&str> = joints.iter().map(String::as_str).collect();
         // The robot's legs and servos: a built-in name or a robot's folder (its robot.toml).
-        let robot = cpg_hoap2::Robot::from_spec(std::path::Path::new(robot)).map_err(err)?;
+        let robot = cpg_robot::Robot::from_spec(std::path::Path::new(robot)).map_err(err)?;
         let spec = robot.spec().map_err(err)?;
         let c = WalkController::new(plan, spec, &names, lo, hi, gains, mass_kg, dt_s, tempo, tempo_at_s, nu, driven)
             .map_err(err)?;

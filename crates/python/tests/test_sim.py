@@ -103,3 +103,23 @@ def test_the_walk_cpg_of_the_experiment_takes_a_tempo_change_and_stops_by_its_in
         simulate(*w, seconds=1.0, cpg_model=fit_walk(*w, seed=1, neurons=50, stride_index=4), stop_at_s=0.5)
     # The seed replaces the configuration's: another seed, another reservoir.
     assert cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=2).to_bytes() != model.to_bytes()
+
+
+def test_a_robot_is_its_folder_in_the_simulator_too(walk, tmp_path):
+    # The HOAP-2's folder copied elsewhere walks exactly as the built-in robot:
+    # the scene, its trunk, sensors and leg length come from the folder's robot.toml.
+    import shutil
+
+    import cpg
+
+    folder = tmp_path / "my-robot"
+    shutil.copytree(ROOT / "assets" / "hoap2", folder)
+    scene = cpg._cpg._robot_scene(str(folder))
+    assert scene["trunk"] == "trunk" and scene["touch"] == ["lleg_touch", "rleg_touch"]
+    assert scene["leg_m"] == 0.2355 and scene["mjcf_path"] is not None
+    w = read_trajectory(str(walk))
+    built_in = simulate(*w, seconds=2.0)
+    from_folder = simulate(*w, seconds=2.0, robot=str(folder))
+    assert from_folder == built_in
+    with pytest.raises(Exception, match="robot 'hopa2'.*did you mean 'hoap2'"):
+        simulate(*w, seconds=1.0, robot="hopa2")

@@ -31,8 +31,8 @@ mod raster;
 
 use std::fmt::Write as _;
 
-use cpg_hoap2::{JointTrajectory, Robot};
 use cpg_mocap::{Motion, Skeleton};
+use cpg_robot::{JointTrajectory, Robot};
 
 pub use raster::{GifOptions, MAX_GIF_FRAMES};
 
@@ -49,7 +49,7 @@ pub enum Error {
     Mocap(#[from] cpg_mocap::Error),
     /// Robot kinematics failed.
     #[error(transparent)]
-    Robot(#[from] cpg_hoap2::Error),
+    Robot(#[from] cpg_robot::Error),
     /// The figures or options do not make a scene.
     #[error("{0}")]
     Input(String),
@@ -145,7 +145,7 @@ impl Figure {
     /// name stay at 0): the root link's origin and every joint's child-link
     /// origin from [`Robot::link_poses`], a segment from each joint's parent
     /// link to it, and the soles of its feet where its spec puts them
-    /// (`feet.sole_in_ankle_m` of [`cpg_hoap2::RobotSpec`] below each leg's
+    /// (`feet.sole_in_ankle_m` of [`cpg_robot::RobotSpec`] below each leg's
     /// last joint; none for a robot read from a URDF alone).
     ///
     /// The robot is placed kinematically, with no dynamics: in every frame
@@ -211,7 +211,7 @@ fn robot_figure<'a>(
     names.extend(robot.joints.iter().map(|j| j.child.clone()));
     // The parent point of each joint: the joint whose child link is this joint's parent link.
     let parent_point =
-        |j: &cpg_hoap2::Joint| robot.joints.iter().position(|p| p.child == j.parent).map_or(0, |p| p + 1);
+        |j: &cpg_robot::Joint| robot.joints.iter().position(|p| p.child == j.parent).map_or(0, |p| p + 1);
     let mut segments: Vec<(usize, usize, Side)> = robot
         .joints
         .iter()
@@ -222,7 +222,7 @@ fn robot_figure<'a>(
     // The soles: below the last joint of each leg, where the robot's spec puts them (none without a spec).
     let (mut leaves, sole_in_ankle) = match &robot.spec {
         Some(spec) => {
-            let last = |leg| cpg_hoap2::spec::leg_chain(robot, leg).map(|c| c[5]);
+            let last = |leg| cpg_robot::spec::leg_chain(robot, leg).map(|c| c[5]);
             (vec![last(&spec.legs.left)?, last(&spec.legs.right)?], spec.feet.sole_in_ankle_m)
         }
         None => (Vec::new(), [0.0; 3]),

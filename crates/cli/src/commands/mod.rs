@@ -16,12 +16,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use cpg_hoap2::{ChannelMap, Robot};
 use cpg_lab::format::Format;
 use cpg_lab::run::Controls;
 use cpg_lab::{Config, ControlSchedule};
 use cpg_mocap::Skeleton;
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, Robot};
 
 use crate::output::{check_writable, write_output};
 
@@ -206,7 +206,7 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
     let rate = m.provenance.sample_rate_hz;
     // The sizes are checked before anything runs.
     steps(a.seconds, rate, m.outputs.len())?;
-    cpg_hoap2::JointTrajectory::check_rate(a.rate_hz.unwrap_or(rate), a.seconds, map.entries.len())?;
+    cpg_robot::JointTrajectory::check_rate(a.rate_hz.unwrap_or(rate), a.seconds, map.entries.len())?;
     let format = Format::choose(a.format, a.output, &Format::TRAJECTORY, Format::Csv)?;
     let dest = check_writable(a.output)?;
     let controls = schedule(&m, a.control, a.control_file)?;
@@ -236,14 +236,14 @@ pub fn hoap2(a: Hoap2<'_>) -> anyhow::Result<()> {
         "(position: frames clamped to the URDF range; speed and acc asked: the largest before limiting, rad; speed, acc: frames held back by the URDF's velocity limit and the {} rad/s² acceleration bound; lag: the largest distance from the angle asked)",
         a.acceleration_rad_s2
     );
-    let over = t.clamps.over(cpg_hoap2::WARN_LIMITED_SHARE);
+    let over = t.clamps.over(cpg_robot::WARN_LIMITED_SHARE);
     if !over.is_empty() {
         let list: Vec<String> =
             over.iter().map(|c| format!("{} ({:.0} %)", c.joint, 100.0 * c.limited_share())).collect();
         let msg = format!(
             "{} joint(s) limited in more than {:.0} % of frames: {}",
             over.len(),
-            100.0 * cpg_hoap2::WARN_LIMITED_SHARE,
+            100.0 * cpg_robot::WARN_LIMITED_SHARE,
             list.join(", ")
         );
         if a.strict {

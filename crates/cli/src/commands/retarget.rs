@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use cpg_hoap2::Robot;
-use cpg_hoap2::physics::MassModel;
 use cpg_lab::retarget::{RetargetOptions, check_plan, human_walk, retarget};
+use cpg_robot::Robot;
+use cpg_robot::physics::MassModel;
 
 use crate::output::{Destination, check_writable, write_output};
 
@@ -41,7 +41,7 @@ pub fn run(a: Retarget<'_>) -> anyhow::Result<()> {
     }
     let human = human_walk(&trials)?;
     let robot = Robot::hoap2()?;
-    let mass = MassModel::from_urdf(&robot, cpg_hoap2::assets::HOAP2_URDF, Path::new("hoap2.urdf"))?;
+    let mass = MassModel::from_urdf(&robot, cpg_robot::assets::HOAP2_URDF, Path::new("hoap2.urdf"))?;
     let (params, plan, style) = retarget(&human, &robot, &mass, &a.options)?;
     let n = plan.n_frames();
     let d = plan.joints.len();

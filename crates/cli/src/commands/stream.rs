@@ -7,9 +7,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
-use cpg_hoap2::{ChannelMap, Robot};
 use cpg_lab::ControlSchedule;
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, Robot};
 
 /// What `cpg stream` was asked for.
 pub struct Stream<'a> {
@@ -145,7 +145,7 @@ pub fn run(s: Stream<'_>) -> anyhow::Result<()> {
     let model_rate = m.provenance.sample_rate_hz;
     let rate = s.rate_hz.unwrap_or(model_rate);
     // The same rate range as a resampled trajectory; the stream holds no frames, so only the duration is bounded.
-    cpg_hoap2::JointTrajectory::check_rate(rate, 0.0, 1).context("--rate-hz")?;
+    cpg_robot::JointTrajectory::check_rate(rate, 0.0, 1).context("--rate-hz")?;
     if let Some(sec) = s.seconds {
         cpg_lab::run::check_seconds("--seconds", sec)?;
     }

@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use cpg_hoap2::{ChannelMap, Robot};
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, Robot};
 use cpg_view::{Camera, Figure, GifOptions, Scene};
 
 use super::{schedule, steps};

@@ -23,10 +23,11 @@ use crate::config::{Config, WholeBodySection};
 use crate::error::Result;
 use crate::measure::{
     CONTACT_MM, FEET, FLOOR_QUANTILE, RunSpec, STILL_SWING, WINDOW_S, channel_steps, column, floors, foot_slide_mm,
-    free_runs, max_step, settle_on_orbit, stance_led,
+    free_runs, max_step, settle_on_orbit,
 };
 use crate::schedule::ControlSchedule;
 use crate::stats::{Proportion, at_limit, median};
+use crate::travel::{CLEAR_MM, PLANT_MM_S};
 use cpg_mocap::cycle::{best_loop, estimate_period, half_range, tile};
 use cpg_reservoir::{Teacher, TrainedCpg};
 
@@ -68,7 +69,7 @@ pub const STAND_TOLERANCE_MM: f64 = 20.0;
 /// The rule of the whole body's verdict, as printed beside it.
 pub fn rule(b: &WholeBodySection) -> String {
     format!(
-        "standing: every rotation within {STAND_TOLERANCE_DEG}° of the posture and swinging less than {STILL_SWING}°, the root's height within {STAND_TOLERANCE_MM} mm and the figure travelling at most {STAND_TOLERANCE_MM} mm over the last {} s of a {} s free run; {}; every switch of the switching run on the orbit the generator keeps with the new inputs held within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding during a stance more than the recorded training trials' own largest slide",
+        "standing: every rotation within {STAND_TOLERANCE_DEG}° of the posture and swinging less than {STILL_SWING}°, the root's height within {STAND_TOLERANCE_MM} mm and the figure travelling at most {STAND_TOLERANCE_MM} mm over the last {} s of a {} s free run; {}; every switch of the switching run on the orbit the generator keeps with the new inputs held within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in every recorded trial of the person (training and held-out, as the period's range), no foot sliding during a stance more than the recorded training trials' own largest slide",
         b.stand_s,
         b.run_s,
         gait_rule(b.run_s)
@@ -140,6 +141,8 @@ pub struct HeldOutGait {
     pub teacher_error: f64,
     /// Per channel, the median over pairs of its RMS error at each pair's best shift.
     pub channel_spread: Vec<f64>,
+    /// Each channel's largest frame-to-frame step in the trials, normalised units.
+    pub steps: Vec<f64>,
     /// The training teacher's cycle time-normalised (`PHASES × d`, the
     /// channels' units), at its best shift against the first held-out trial.
     #[serde(skip)]
@@ -230,10 +233,12 @@ pub struct BodySwitch {
     pub step_channel: String,
     /// The largest slide of a foot on the ground from the switch to the next, mm (`None`: no skeleton).
     pub slide_mm: Option<f64>,
-    /// The same with the figure carried instead by the travel its feet imply
-    /// ([`stance_led`], the lower foot on the ground kept still): the slide
-    /// the legs themselves make, one foot dragged while the other bears the weight, mm.
-    pub legs_slide_mm: Option<f64>,
+    /// The same before the feet's cleanup ([`crate::travel`]): the legs as
+    /// the generator gives them, a foot dragged while the other bears the weight, mm.
+    pub raw_slide_mm: Option<f64>,
+    /// The largest change the feet's cleanup made to a leg's rotation from
+    /// the switch to the next, degrees (`None`: no skeleton).
+    pub cleanup_deg: Option<f64>,
     /// Settled within the strides, no step beyond the data's.
     pub passed: bool,
     /// Decided by less than the printed digits.
@@ -272,7 +277,7 @@ pub struct BodyResult {
     pub held_out: Vec<HeldOutGait>,
     /// The largest frame-to-frame step in the teachers' cycles (each round its seam), normalised units.
     pub data_step: f64,
-    /// The largest in the recorded training trials.
+    /// The largest in every recorded trial (training and held-out).
     pub recorded_step: f64,
     /// Each recorded training trial's largest foot slide by the same rule, mm (the yardstick of the data).
     pub data_slide_mm: Vec<(String, f64)>,
@@ -286,7 +291,7 @@ pub struct BodyResult {
     pub threads: usize,
     /// Free-run length of each state, seconds.
     pub run_s: f64,
-    /// Each channel's largest frame-to-frame step in the recorded training trials, normalised units.
+    /// Each channel's largest frame-to-frame step in every recorded trial (training and held-out), normalised units.
     pub data_steps: Vec<f64>,
     /// When each switch of the switching run starts, seconds.
     pub switch_at_s: Vec<f64>,
@@ -302,7 +307,7 @@ pub struct BodyResult {
     /// The first seed's switching run on the robot (when the test names one):
     /// its mapped joints at 1 kHz within their ranges, velocity limits and the
     /// acceleration bound, as `cpg hoap2` and `cpg stream` keep them.
-    pub robot: Option<cpg_hoap2::ClampReport>,
+    pub robot: Option<cpg_robot::ClampReport>,
     /// The acceleration bound the robot's joints were kept within, rad/s².
     pub robot_acceleration_rad_s2: f64,
     /// Each mapped joint's velocity limit from the robot's URDF, rad/s (in [`Self::robot`]'s order).
@@ -400,6 +405,7 @@ fn held_out(
     let lo = (c.data.period_s[0] * rate).round() as usize;
     let hi = (c.data.period_s[1] * rate).round() as usize;
     let mut trials = Vec::with_capacity(h.motions.len());
+    let mut steps = vec![0.0; d];
     for (i, path) in h.motions.iter().enumerate() {
         let key = format!("experiment.test.whole_body.held_out[{k}].motions[{i}]");
         let motion =
@@ -413,6 +419,7 @@ fn held_out(
                 format!("{}: no rhythm between {} and {} s", path.display(), c.data.period_s[0], c.data.period_s[1]),
             )
         })?;
+        steps = widest(steps, channel_steps(&z, d));
         let lp = best_loop(&z, d, p, 1)
             .ok_or_else(|| c.error(&key, format!("{}: one cycle of {p:.1} frames does not fit", path.display())))?;
         let cycle = &units[lp.start * d..(lp.start + lp.len) * d];
@@ -468,6 +475,7 @@ fn held_out(
         channel_spread: per_channel.iter().map(|v| median(v)).collect(),
         pair_errors,
         trials,
+        steps,
     })
 }
 
@@ -792,7 +800,7 @@ struct Test<'a> {
     gait_index: Vec<usize>,
     held: Vec<HeldOutGait>,
     reference: usize,
-    /// Each channel's largest step in the recorded training trials.
+    /// Each channel's largest step in every recorded trial (training and held-out).
     data_steps: Vec<f64>,
     /// The skeleton's length unit, mm.
     mm_per_unit: f64,
@@ -834,13 +842,16 @@ impl Test<'_> {
         let sw = ys.pop().unwrap_or_default();
         let mut units = cpg_reservoir::to_units(&m.outputs, &sw);
         cpg_reservoir::integrate_in_place(&m.outputs, &mut units, rate);
+        let mut raw = units.clone();
         crate::travel::feet_led(m, &mut units)?;
-        let feet = match &self.skeleton {
-            Some(sk) => Some(sk.forward_kinematics(&as_motion(m, &units)?)?),
-            None => None,
+        crate::travel::feet_led_raw(m, &mut raw)?;
+        let (feet, legs) = match &self.skeleton {
+            Some(sk) => (
+                Some(sk.forward_kinematics(&as_motion(m, &units)?)?),
+                Some(sk.forward_kinematics(&as_motion(m, &raw)?)?),
+            ),
+            None => (None, None),
         };
-        // The same motion carried by its feet instead of its learnt travel.
-        let legs = feet.as_ref().map(|p| stance_led(p, &self.feet, &self.floors));
         let stand = judge_stand(
             m,
             &ys[self.stand],
@@ -859,7 +870,10 @@ impl Test<'_> {
         let orbits: Vec<Option<Vec<f64>>> =
             self.teachers.iter().zip(&ys).map(|(t, y)| own_orbit(y, d, t, self.reference)).collect();
         let switches: Vec<BodySwitch> = (0..self.switch_at_s.len())
-            .map(|s| self.switch(m, &sw, &orbits, [feet.as_ref(), legs.as_ref()], s))
+            .map(|s| {
+                let cleaned = feet.as_ref().map(|_| (units.as_slice(), raw.as_slice()));
+                self.switch(m, &sw, &orbits, [feet.as_ref(), legs.as_ref()], cleaned, s)
+            })
             .collect();
         let mut parts = vec![(stand.passed, stand.at_limit)];
         parts.extend(gaits.iter().map(|g| (g.passed, g.at_limit)));
@@ -876,6 +890,7 @@ impl Test<'_> {
         sw: &[f64],
         orbits: &[Option<Vec<f64>>],
         [feet, legs]: [Option<&cpg_mocap::Positions>; 2],
+        cleaned: Option<(&[f64], &[f64])>,
         s: usize,
     ) -> BodySwitch {
         let (b, d, rate, teachers) = (self.b, self.d, self.rate, self.teachers);
@@ -896,7 +911,14 @@ impl Test<'_> {
             .fold((0, 0.0), |w, x| if x.1 > w.1 { x } else { w });
         let limit = SETTLE_STRIDES * stride_s;
         let slide_mm = feet.map(|p| foot_slide_mm(p, self.at(start), self.at(end), &self.feet, &self.floors));
-        let legs_slide_mm = legs.map(|p| foot_slide_mm(p, self.at(start), self.at(end), &self.feet, &self.floors));
+        let raw_slide_mm = legs.map(|p| foot_slide_mm(p, self.at(start), self.at(end), &self.feet, &self.floors));
+        let cleanup_deg = cleaned.map(|(a, b)| {
+            let (from, to) = (self.at(start) * d, (self.at(end) * d).min(a.len()));
+            (from..to)
+                .filter(|i| m.outputs[i % d].integrates().is_none())
+                .map(|i| (a[i] - b[i]).abs())
+                .fold(0.0, f64::max)
+        });
         let parts = [
             (settle_s.is_some_and(|v| v <= limit), settle_s.is_some_and(|v| at_limit(v, limit, 2))),
             (step_ratio <= 1.0, at_limit(step_ratio, 1.0, 2)),
@@ -916,7 +938,8 @@ impl Test<'_> {
             step_ratio,
             step_channel: m.outputs[step_channel].name.clone(),
             slide_mm,
-            legs_slide_mm,
+            raw_slide_mm,
+            cleanup_deg,
             passed,
             at_limit: fragile,
         }
@@ -1016,11 +1039,17 @@ fn robot_clamps(
     m: &TrainedCpg,
     schedule: &ControlSchedule,
     seconds: f64,
-    robot: &cpg_hoap2::Robot,
-    map: &cpg_hoap2::ChannelMap,
-) -> Result<cpg_hoap2::ClampReport> {
-    let target = crate::stream::RobotTarget { robot, map, acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 };
+    robot: &cpg_robot::Robot,
+    map: &cpg_robot::ChannelMap,
+) -> Result<cpg_robot::ClampReport> {
+    let target = crate::stream::RobotTarget { robot, map, acceleration_rad_s2: cpg_robot::DEFAULT_ACCELERATION_RAD_S2 };
     Ok(crate::stream::joint_trajectory(m, schedule, seconds, Some(ROBOT_RATE_HZ), target)?.clamps)
+}
+
+/// Each channel's largest frame-to-frame step in every recorded trial of
+/// the person: the training segments and the held-out trials, normalised units.
+fn recorded_steps(segments: &[Vec<f64>], held: &[HeldOutGait], d: usize) -> Vec<f64> {
+    segments.iter().map(|s| channel_steps(s, d)).chain(held.iter().map(|g| g.steps.clone())).fold(vec![0.0; d], widest)
 }
 
 /// Runs the whole body's test on configuration `c`.
@@ -1037,14 +1066,14 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
     let held = read_held_out(c, b, &gait_index, first, &prep, progress)?;
     let reference =
         c.data.period_channel.as_ref().and_then(|n| prep.outputs.iter().position(|o| &o.name == n)).unwrap_or(0);
-    // Each channel's largest step in the recorded training trials (the
-    // data), and in the teachers' cycles, each tiled once round its seam (the
+    // Each channel's largest step in every recorded trial of the person
+    // (training and held-out: the data), and in the teachers' cycles, each tiled once round its seam (the
     // motion the generator learnt, averaged and smoother).
     let teacher_steps = teachers
         .iter()
         .map(|t| channel_steps(&tile(&t.cycle, d, t.cycle.len() / d + 1, 0), d))
         .fold(vec![0.0; d], widest);
-    let data_steps = prep.segments.iter().map(|s| channel_steps(s, d)).fold(vec![0.0; d], widest);
+    let data_steps = recorded_steps(&prep.segments, &held, d);
     let (data_slide_mm, teacher_slide_mm, floors) = data_slides(c, &prep, first)?;
     let run_s = if opts.quick { b.quick_run_s } else { b.run_s };
     let (schedule, switch_at_s, switch_len_s) = switching(teachers, b);
@@ -1072,7 +1101,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         switch_steps: (switch_len_s * rate).round() as usize,
     };
     let robot = match &b.robot {
-        Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
+        Some(r) => Some((cpg_robot::Robot::from_urdf_file(&r.urdf)?, cpg_robot::ChannelMap::load(&r.map)?)),
         None => None,
     };
     let robot_run = match &robot {
@@ -1091,7 +1120,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
                 let robot = robot.as_ref().map(|(r, map)| crate::scene::RobotView {
                     robot: r,
                     map,
-                    acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+                    acceleration_rad_s2: cpg_robot::DEFAULT_ACCELERATION_RAD_S2,
                 });
                 let mut scene = crate::scene::run_scene(&super::view_title(c), m, &test.schedule, 0, &units, robot)?;
                 scene.marks = test.marks();
@@ -1133,7 +1162,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
             _ => Vec::new(),
         },
         robot: robot_run,
-        robot_acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+        robot_acceleration_rad_s2: cpg_robot::DEFAULT_ACCELERATION_RAD_S2,
         switch_runs: per_seed.iter().map(|s| s.1.clone()).collect(),
         seeds: per_seed.into_iter().map(|s| s.0).collect(),
         claims: Vec::new(),
@@ -1309,17 +1338,20 @@ impl BodyResult {
             vec![
                 Measure::count(format!("seeds passing all {n_sw} switches"), count(&|s| s.switches.iter().all(|w| w.passed))),
                 Measure::spread("settling after the ramp (every switch that settles)", &settle_strides, "strides", 2),
-                Measure::spread("largest step after a switch, over the channel's largest in the recorded training trials", &col(&|s| s.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max)), "", 2),
+                Measure::spread("largest step after a switch, over the channel's largest in every recorded trial", &col(&|s| s.switches.iter().map(|w| w.step_ratio).fold(0.0, f64::max)), "", 2),
                 Measure::spread("largest slide of a foot on the ground", &col(&|s| s.switches.iter().filter_map(|w| w.slide_mm).fold(0.0, f64::max)), "mm", 0),
                 Measure::spread("the same in each recorded training trial", &self.data_slide_mm.iter().map(|x| x.1).collect::<Vec<_>>(), "mm", 0),
             ]
             .into_iter()
             .chain(self.teacher_slide_mm.map(|v| Measure::number("in the training sequence itself (its blends between states included)", v, "mm", 0)))
-            .chain(std::iter::once(Measure::spread("the generator's largest with its figure carried instead by the travel that keeps its weight-bearing foot still (the lower foot on the ground): what no such travel removes", &col(&|s| s.switches.iter().filter_map(|w| w.legs_slide_mm).fold(0.0, f64::max)), "mm", 0)))
+            .chain([
+                Measure::spread("the generator's largest before the feet's cleanup (its legs as generated)", &col(&|s| s.switches.iter().filter_map(|w| w.raw_slide_mm).fold(0.0, f64::max)), "mm", 0),
+                Measure::spread("the largest change the cleanup made to a leg's rotation", &col(&|s| s.switches.iter().filter_map(|w| w.cleanup_deg).fold(0.0, f64::max)), "°", 1),
+            ])
             .collect(),
             self.part_verdict(
                 |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),
-                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding during a stance more than the recorded training trials' own largest slide by the same measure ({:.0} mm; on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its figure carried by its feet, as every run of the model is)", self.test.ramp_s, self.test.stay_s, self.slide_limit_mm(), FLOOR_QUANTILE * 100.0),
+                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding during a stance more than the recorded training trials' own largest slide by the same measure ({:.0} mm; on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its figure carried by its feet and its feet cleaned up, as every run of the model is: a foot coming down slower than {PLANT_MM_S} mm/s planted where it lands and held there by inverse kinematics of the hip and the knee, one dragged faster lifted {CLEAR_MM} mm clear; the slides before the cleanup beside)", self.test.ramp_s, self.test.stay_s, self.slide_limit_mm(), FLOOR_QUANTILE * 100.0),
             ),
         ));
         claims.push(claim(

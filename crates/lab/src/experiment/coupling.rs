@@ -5,9 +5,9 @@ mod section;
 
 use serde::Serialize;
 
-use cpg_hoap2::{ChannelMap, ClampReport, JointTrajectory, Robot};
 use cpg_mocap::cycle::{align_to_cycle, align_to_cycle_fine, lag};
 use cpg_reservoir::TrainedCpg;
+use cpg_robot::{ChannelMap, ClampReport, JointTrajectory, Robot};
 
 use rayon::prelude::*;
 
@@ -109,10 +109,10 @@ pub struct Hoap2 {
     /// Largest step of a commanded angle between consecutive frames within the loop at 1 kHz, radians.
     pub loop_max_step_rad: f64,
     /// The robot's gait (HOAP-2 kinematics of the commanded angles, soles in the trunk frame).
-    pub robot_gait: Option<cpg_hoap2::Gait>,
+    pub robot_gait: Option<cpg_robot::Gait>,
     /// The human's gait in the recorded segment (ankles relative to the root), lengths
     /// multiplied by [`Hoap2::leg_scale`].
-    pub human_gait_scaled: Option<cpg_hoap2::Gait>,
+    pub human_gait_scaled: Option<cpg_robot::Gait>,
     /// HOAP-2's leg length (thigh + shank) over the human's (femur + tibia).
     pub leg_scale: f64,
     /// The trajectory at the model's rate (radians).
@@ -392,7 +392,7 @@ fn finish(
         robot.as_ref().map(|(r, map)| crate::scene::RobotView {
             robot: r,
             map,
-            acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+            acceleration_rad_s2: cpg_robot::DEFAULT_ACCELERATION_RAD_S2,
         }),
     )?;
     let hoap2 = match &robot {
@@ -461,7 +461,7 @@ fn hoap2_loop(
     rate: f64,
 ) -> Result<Hoap2> {
     let d = names.len();
-    let a_max = cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2;
+    let a_max = cpg_robot::DEFAULT_ACCELERATION_RAD_S2;
     let ten = (10.0 * rate) as usize;
     // The model's own period, from the reference channel of the last 10 s.
     let refcol = column(&y[(n - ten) * d..], d, refc);
@@ -518,7 +518,7 @@ fn hoap2_loop(
     let max_acceleration_rad_s2 = max_abs(&fast.accelerations_rad_s2);
     let frames = (fast.clamps.joints.len() * fast.n_frames()).max(1) as f64;
     let share =
-        |f: fn(&cpg_hoap2::JointClamp) -> usize| fast.clamps.joints.iter().map(f).sum::<usize>() as f64 / frames;
+        |f: fn(&cpg_robot::JointClamp) -> usize| fast.clamps.joints.iter().map(f).sum::<usize>() as f64 / frames;
     let nf = fast.n_frames();
     let loop_seam_rad =
         (0..dj).map(|j| (fast.values_rad[j] - fast.values_rad[(nf - 1) * dj + j]).abs()).fold(0.0, f64::max);
@@ -530,7 +530,7 @@ fn hoap2_loop(
         .fold(0.0f64, |mx, w| w[0].iter().zip(w[1]).fold(mx, |mx, (a, b)| mx.max((b - a).abs())));
     let spec = robot.spec()?;
     let sole = spec.feet.sole_in_ankle_m;
-    let robot_gait = cpg_hoap2::gait(
+    let robot_gait = cpg_robot::gait(
         &robot.path(&trajectory, &spec.legs.left.ankle_roll, sole)?,
         &robot.path(&trajectory, &spec.legs.right.ankle_roll, sole)?,
         rate,
@@ -643,7 +643,7 @@ fn median_nmse(rows: &[LagRow]) -> f64 {
 /// The human's gait in the first recorded segment: ankle paths relative to
 /// the root (root rotation 0, y up, facing +z), lengths scaled to HOAP-2's
 /// legs; and the scale (HOAP-2's thigh + shank over the human's femur + tibia).
-fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Result<(Option<cpg_hoap2::Gait>, f64)> {
+fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Result<(Option<cpg_robot::Gait>, f64)> {
     let Some(sk) = &prep.skeleton else { return Ok((None, f64::NAN)) };
     let bone = |n: &str| sk.bones.iter().find(|b| b.name == n).map(|b| b.length * sk.mm_per_unit() / 1000.0);
     let robot_leg = robot.joint("lleg_joint_4")?.origin_m[2].abs() + robot.joint("lleg_joint_5")?.origin_m[2].abs();
@@ -673,7 +673,7 @@ fn human_gait(prep: &Prepared, names: &[String], robot: &Robot, rate: f64) -> Re
         )
     };
     let (Some(l), Some(r)) = (path("ltibia"), path("rtibia")) else { return Ok((None, scale)) };
-    Ok((cpg_hoap2::gait(&l, &r, rate, 2, 1), scale))
+    Ok((cpg_robot::gait(&l, &r, rate, 2, 1), scale))
 }
 
 impl super::Experiment for CouplingResult {

@@ -56,6 +56,9 @@ fn what(key: &str) -> String {
         "reservoir.n_neurons" => "neurons",
         "reservoir.feedback" => "output feedback coupling",
         "reservoir.spectral_radius" => "spectral radius",
+        "data.normalise" => {
+            "each channel divided by its standard deviation (total: over all the data; rhythm: within each segment)"
+        }
         "data.morph_s" => "blend between segments in the training sequence (s)",
         "data.repeats" => "training blocks repeated",
         "data.samples_per_segment" => "samples per training block",

@@ -384,7 +384,7 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
     let (prep, models) = train_seeds(c, &seeds, opts.threads, progress)?;
     let sw = Switching::new(c, g, &prep)?;
     let robot = match &g.robot {
-        Some(r) => Some((cpg_hoap2::Robot::from_urdf_file(&r.urdf)?, cpg_hoap2::ChannelMap::load(&r.map)?)),
+        Some(r) => Some((cpg_robot::Robot::from_urdf_file(&r.urdf)?, cpg_robot::ChannelMap::load(&r.map)?)),
         None => None,
     };
     progress.start("switching runs", seeds.len() as u64);
@@ -407,7 +407,7 @@ pub fn run(c: &Config, g: &GaitsSection, opts: Options, progress: &dyn Progress)
                     robot.as_ref().map(|(r, map)| crate::scene::RobotView {
                         robot: r,
                         map,
-                        acceleration_rad_s2: cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2,
+                        acceleration_rad_s2: cpg_robot::DEFAULT_ACCELERATION_RAD_S2,
                     }),
                 )?;
                 Some((sw.figure(&ys, &ya), view))

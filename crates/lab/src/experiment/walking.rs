@@ -88,7 +88,7 @@ impl SimRun {
         if let Some(k) = self.poses.iter().position(|p| p.len() != 8 + d) {
             return Err(Error::Shape(format!("pose {k} has {} values; expected 8 + {d}", self.poses[k].len())));
         }
-        let robot = cpg_hoap2::Robot::hoap2()?;
+        let robot = cpg_robot::Robot::hoap2()?;
         let rate = 1.0 / (self.poses[1][0] - self.poses[0][0]);
         if !(rate.is_finite() && rate > 0.0) {
             return Err(Error::Shape("the poses' times do not increase".into()));

@@ -10,7 +10,7 @@ The walk is either a trajectory (``cpg retarget``'s CSV: time_s and one
 ``JOINT_rad`` column per joint, played by linear interpolation) or a trained
 model (``--model``, its channels named after the robot's joints, generated
 at the control rate). The controller is an outer loop around it, once per
-1-ms physics step (it runs in Rust, ``cpg_hoap2::control``, on MjData's
+1-ms physics step (it runs in Rust, ``cpg_robot::control``, on MjData's
 own arrays; Python only calls it and MuJoCo):
 
 * **attitude feedback** from the simulated IMU (``imu_quat``, ``imu_gyro``):
@@ -151,8 +151,11 @@ def simulate(
     tempo_ramp_s: float = 3.0,
     stop_at_s: Optional[float] = None,
     stop_ramp_s: float = 2.0,
+    robot: str = "hoap2",
 ):
-    """Plays a walk in the HOAP-2 model; returns the run's measures (a dict).
+    """Plays a walk in a robot's MuJoCo scene (``robot``: a built-in name,
+    ``hoap2``, or a robot's folder with its ``robot.toml``, which names the
+    scene, its trunk and sensors and its legs); returns the run's measures (a dict).
 
     With ``cpg_model`` (a trained ``cpg.Model`` whose channels are ``JOINT.rx`` in
     degrees), the walk's trajectory gives the start (standing, the first
@@ -180,7 +183,7 @@ def simulate(
             seen, times_s, joints, angles_rad, support, seconds=seconds, gains=gains, push_every_s=push_every_s,
             push_mps=push_mps, push_direction=push_direction, tempo=tempo, tempo_at_s=tempo_at_s,
             record_every=record_every, cpg_model=cpg_model, handover_s=handover_s, cpg_controls=cpg_controls,
-            tempo_ramp_s=tempo_ramp_s, stop_at_s=stop_at_s, stop_ramp_s=stop_ramp_s,
+            tempo_ramp_s=tempo_ramp_s, stop_at_s=stop_at_s, stop_ramp_s=stop_ramp_s, robot=robot,
         )
     finally:
         mujoco.set_mju_user_warning(previous)
@@ -207,6 +210,7 @@ def _simulate(
     tempo_ramp_s: float = 3.0,
     stop_at_s: Optional[float] = None,
     stop_ramp_s: float = 2.0,
+    robot: str = "hoap2",
 ):
     """The body of :func:`simulate`; MuJoCo's warnings go to ``warnings_seen``."""
     import mujoco
@@ -234,14 +238,18 @@ def _simulate(
         raise ValueError(f"tempo {tempo}: expected 0.25–4")
     import cpg
 
-    model = mujoco.MjModel.from_xml_string(cpg.hoap2_mjcf())
+    scene = cpg._cpg._robot_scene(robot)
+    if scene["mjcf_path"] is not None:
+        model = mujoco.MjModel.from_xml_path(str(scene["mjcf_path"]))
+    else:
+        model = mujoco.MjModel.from_xml_string(scene["mjcf"])
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     dt = model.opt.timestep
     try:
         act = np.array([model.actuator(j).id for j in joints])
     except KeyError as e:
-        raise ValueError(f"the walk names a joint the HOAP-2 has no servo for: {e}") from None
+        raise ValueError(f"the walk names a joint the {scene['title']} has no servo for: {e}") from None
     lo, hi = model.actuator_ctrlrange[act, 0], model.actuator_ctrlrange[act, 1]
     qadr = np.array([model.jnt_qposadr[model.joint(j).id] for j in joints])
     duration = float(times_s[-1] - times_s[0])
@@ -252,9 +260,9 @@ def _simulate(
     data.qpos[qadr] = first
     data.ctrl[act] = first
     mujoco.mj_forward(model, data)
-    trunk = model.body("trunk").id
+    trunk = model.body(scene["trunk"]).id
     mass = float(np.sum(model.body_mass))
-    touch_adr = [model.sensor("lleg_touch").adr[0], model.sensor("rleg_touch").adr[0]]
+    touch_adr = [model.sensor(name).adr[0] for name in scene["touch"]]
     start = data.xpos[trunk].copy()
     stand_z = start[2]
     # Touch-down times of the plan: where support turns from single to double.
@@ -263,7 +271,7 @@ def _simulate(
         for k in range(1, len(support)):
             if support[k] == "double" and support[k - 1] in ("left", "right"):
                 landings.append((float(clock_t[k]), 1 if support[k - 1] == "left" else 0))  # the foot that swung
-    # The controller (cpg._cpg._WalkLoop, cpg_hoap2::control): before each
+    # The controller (cpg._cpg._WalkLoop, cpg_robot::control): before each
     # step it reads the sensors and writes data.ctrl, after it counts the
     # servos' torque and work, on MjData's own arrays.
     setup = dict(
@@ -283,8 +291,8 @@ def _simulate(
         ctrl=data.ctrl,
         force=data.actuator_force,
         velocity=data.actuator_velocity,
-        quat_adr=int(model.sensor("imu_quat").adr[0]),
-        gyro_adr=int(model.sensor("imu_gyro").adr[0]),
+        quat_adr=int(model.sensor(scene["imu_quat"]).adr[0]),
+        gyro_adr=int(model.sensor(scene["imu_gyro"]).adr[0]),
         touch_adr=[int(a) for a in touch_adr],
     )
     if cpg_model is not None:
@@ -314,7 +322,7 @@ def _simulate(
             first_rad=[float(v) for v in first_rad],
             **schedule,
         )
-    loop = cpg._cpg._WalkLoop(**setup)
+    loop = cpg._cpg._WalkLoop(**setup, robot=str(robot))
     fall_z, fall_up = 0.6 * stand_z, math.cos(math.radians(45))  # below 60 % of its height, tilted beyond 45°
     pushes_total = pushes_survived = 0
     push_left = 0.0
@@ -386,7 +394,7 @@ def _simulate(
     heading = math.degrees(math.atan2(m[1, 0], m[0, 0]))
     distance = float(math.hypot(end[0], end[1]))
     upright = steps_run * dt if fell_at is None else fell_at
-    leg_m = 0.2355
+    leg_m = scene["leg_m"]
     out = {
         "seconds": total,
         "upright_s": upright,
@@ -487,6 +495,7 @@ def main(argv=None) -> int:
     p.add_argument("--tempo", type=number(0.25, 4.0), default=1.0, help="the gait's speed factor from --tempo-at-s on (0.25–4)")
     p.add_argument("--tempo-at-s", type=number(0.0), default=0.0, help="when the tempo changes, s")
     p.add_argument("--stop-at-s", type=number(0.0), help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
+    p.add_argument("--robot", default="hoap2", help="the robot: a built-in name (hoap2) or a robot's folder with its robot.toml")
     p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE")
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
     p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here (- for standard output)")
@@ -521,6 +530,7 @@ def main(argv=None) -> int:
             cpg_model=model,
             handover_s=a.handover_s,
             stop_at_s=a.stop_at_s,
+            robot=a.robot,
         )
         if a.output:
             write_output(a.output, json.dumps(r))

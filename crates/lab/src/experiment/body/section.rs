@@ -236,7 +236,7 @@ fn per_seed(s: &mut Section, r: &BodyResult) {
         })
         .collect();
     s.line(format!(
-        "Per seed, {} (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in the recorded training trials (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3}); the foot slide of each switch in order, the largest of either foot during one stance from the ramp's start to the next switch, and, feet-led, the same with the figure carried instead by the travel that keeps its weight-bearing foot (the lower on the ground) still: what no such travel removes):",
+        "Per seed, {} (✗: outside its rule; the switches in order, settling counted from the ramp's end, in strides of the state reached, onto the orbit the generator keeps with those inputs held; the largest step, the largest over the channels of a channel's step over its largest in every recorded trial, training and held-out (from {:.3} to {:.3} in normalised units; in the teachers' cycles, averaged and smoother, at most {:.3}); the foot slide of each switch in order, the largest of either foot during one stance from the ramp's start to the next switch, after the feet's cleanup and, raw, before it, with the largest change the cleanup made to a leg's rotation):",
         trainer(r),
         r.data_steps.iter().copied().filter(|v| *v > 1e-9).fold(f64::INFINITY, f64::min),
         r.recorded_step,
@@ -427,7 +427,7 @@ fn robot(s: &mut Section, r: &BodyResult) {
     ));
     s.blank();
     // Which joints bind: the ones a bound changed most often, with what was asked of them.
-    let mut binding: Vec<(usize, &cpg_hoap2::JointClamp)> =
+    let mut binding: Vec<(usize, &cpg_robot::JointClamp)> =
         c.joints.iter().enumerate().filter(|(_, j)| j.limited_share() > 0.05).collect();
     binding.sort_by(|a, b| b.1.limited_share().total_cmp(&a.1.limited_share()));
     if !binding.is_empty() {
@@ -476,9 +476,10 @@ fn robot(s: &mut Section, r: &BodyResult) {
     );
 }
 
-/// Each switch's foot slide in order, then each with the figure carried
-/// instead by the travel its feet imply (`540, 71 mm (feet-led: 216, 0)`);
-/// `no feet` when the model has no skeleton to find them.
+/// Each switch's foot slide in order, then each before the feet's cleanup,
+/// and the cleanup's largest change of a leg's rotation
+/// (`0, 0 mm (raw: 216, 40; cleanup up to 12.5°)`); `no feet` when the
+/// model has no skeleton to find them.
 fn slides(switches: &[BodySwitch]) -> String {
     if switches.iter().all(|w| w.slide_mm.is_none()) {
         return "no feet".into();
@@ -486,7 +487,8 @@ fn slides(switches: &[BodySwitch]) -> String {
     let each = |f: fn(&BodySwitch) -> Option<f64>| {
         switches.iter().map(|w| f(w).map_or("—".into(), |v| format!("{v:.0}"))).collect::<Vec<String>>().join(", ")
     };
-    format!("{} mm (feet-led: {})", each(|w| w.slide_mm), each(|w| w.legs_slide_mm))
+    let cleanup = switches.iter().filter_map(|w| w.cleanup_deg).fold(0.0, f64::max);
+    format!("{} mm (raw: {}; cleanup up to {cleanup:.1}°)", each(|w| w.slide_mm), each(|w| w.raw_slide_mm))
 }
 
 /// Seeds in words: "seed 4", "seeds 1–3" (a run of consecutive seeds), or "seeds 1, 3, 8".
@@ -514,7 +516,8 @@ mod tests {
             step_ratio: 0.9,
             step_channel: "lfemur.rx".into(),
             slide_mm,
-            legs_slide_mm: slide_mm.map(|v| v / 2.0),
+            raw_slide_mm: slide_mm.map(|v| v / 2.0),
+            cleanup_deg: slide_mm.map(|v| v / 100.0),
             passed: false,
             at_limit: false,
         }
@@ -523,7 +526,7 @@ mod tests {
     #[test]
     fn each_switch_names_its_own_slide() {
         let each = [switch(Some(540.4)), switch(Some(71.0)), switch(None), switch(Some(9.6))];
-        assert_eq!(slides(&each), "540, 71, —, 10 mm (feet-led: 270, 36, —, 5)");
+        assert_eq!(slides(&each), "540, 71, —, 10 mm (raw: 270, 36, —, 5; cleanup up to 5.4°)");
         assert_eq!(slides(&[switch(None), switch(None)]), "no feet");
     }
 

@@ -181,7 +181,7 @@ pub fn hoap2(s: &mut Section, rs: &[&CouplingResult]) {
                 h.leg_scale
             ));
             s.blank();
-            let g = |x: Option<cpg_hoap2::Gait>, f: fn(&cpg_hoap2::Gait) -> String| {
+            let g = |x: Option<cpg_robot::Gait>, f: fn(&cpg_robot::Gait) -> String| {
                 x.as_ref().map(f).unwrap_or_else(|| "no full cycle".into())
             };
             let rows = vec![

@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use cpg_hoap2::{ChannelMap, Error, JointTrajectory, Robot};
 use cpg_mocap::data::{Subject, find};
 use cpg_mocap::{Motion, Skeleton};
+use cpg_robot::{ChannelMap, Error, JointTrajectory, Robot};
 
 fn asset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/hoap2").join(name)
@@ -124,7 +124,7 @@ fn walking_trial_maps_within_limits_with_a_clamp_report() {
     let linear = q.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs() * 120.0 * 1000.0).fold(0.0, f64::max);
     assert!(jump < linear / 10.0, "knee: the spline's acceleration steps by {jump} rad/s², linear's by {linear}");
     // Limited: every joint within position, velocity (the URDF's 5 rad/s) and the stated acceleration bound.
-    let l = k.limit(&r, cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2).unwrap();
+    let l = k.limit(&r, cpg_robot::DEFAULT_ACCELERATION_RAD_S2).unwrap();
     for (j, name) in l.joints.iter().enumerate() {
         let joint = r.joint(name).unwrap();
         for f in 0..l.n_frames() {
@@ -132,7 +132,7 @@ fn walking_trial_maps_within_limits_with_a_clamp_report() {
             assert!((joint.lower_rad..=joint.upper_rad).contains(&l.values_rad[i]), "{name}");
             assert!(l.velocities_rad_s[i].abs() <= joint.velocity_rad_s + 1e-9, "{name} frame {f}");
             assert!(
-                l.accelerations_rad_s2[i].abs() <= cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 + 1e-6,
+                l.accelerations_rad_s2[i].abs() <= cpg_robot::DEFAULT_ACCELERATION_RAD_S2 + 1e-6,
                 "{name} frame {f}: {:?}",
                 (f.saturating_sub(3)..f + 2)
                     .map(|g| (
@@ -222,11 +222,11 @@ fn deeply_nested_urdf_is_an_error_naming_its_line_not_a_crash() {
         "<link name=\"a\"/>".repeat(5000),
         ""
     );
-    assert!(cpg_hoap2::check_nesting(&ok, 2).is_ok());
+    assert!(cpg_robot::check_nesting(&ok, 2).is_ok());
     let nested = format!("<robot>{}{}</robot>", "<a>".repeat(63), "</a>".repeat(63));
-    assert!(cpg_hoap2::check_nesting(&nested, 64).is_ok());
+    assert!(cpg_robot::check_nesting(&nested, 64).is_ok());
     let nested = format!("<robot>{}{}</robot>", "<a>".repeat(64), "</a>".repeat(64));
-    assert!(cpg_hoap2::check_nesting(&nested, 64).is_err());
+    assert!(cpg_robot::check_nesting(&nested, 64).is_err());
     // The project's own URDF is well within it.
     Robot::from_urdf_file(&asset("hoap2.urdf")).unwrap();
 }
@@ -238,7 +238,7 @@ fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
     let none: Vec<String> = Vec::new();
     let poses = r.link_poses(&none, &[]).unwrap();
     let ankle = r.joints.iter().position(|j| j.name == "lleg_joint_6").unwrap();
-    let sole = poses[ankle] * nalgebra::Point3::from(cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m);
+    let sole = poses[ankle] * nalgebra::Point3::from(cpg_robot::RobotSpec::hoap2().feet.sole_in_ankle_m);
     // Zero pose: the hip 0.034 m behind, 0.039 m to the side of and 0.055 m below the trunk
     // origin, thigh and shank 0.1 m each, the sole 0.033 m below the ankle and 0.0112 m forward.
     assert!((sole.x - (-0.034 + 0.0112)).abs() < 1e-9 && (sole.y - 0.039).abs() < 1e-9, "{sole}");
@@ -252,9 +252,9 @@ fn kinematics_put_the_feet_where_the_reference_says_and_the_walk_alternates() {
     let sk = Skeleton::from_file(find(Subject::S35, "35.asf").unwrap()).unwrap();
     let motion = Motion::from_amc_file(find(Subject::S35, "35_01.amc").unwrap(), &sk, 120.0).unwrap();
     let t = m.apply(&r, &motion.channel_names(), motion.values(), 120.0).unwrap();
-    let left = r.path(&t, "lleg_joint_6", cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
-    let right = r.path(&t, "rleg_joint_6", cpg_hoap2::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
-    let g = cpg_hoap2::gait(&left, &right, 120.0, 0, 2).unwrap();
+    let left = r.path(&t, "lleg_joint_6", cpg_robot::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
+    let right = r.path(&t, "rleg_joint_6", cpg_robot::RobotSpec::hoap2().feet.sole_in_ankle_m).unwrap();
+    let g = cpg_robot::gait(&left, &right, 120.0, 0, 2).unwrap();
     // 35_01's stride is about 135 frames (1.12 s), the legs in antiphase.
     assert!((g.period_s - 1.12).abs() < 0.1, "{g:?}");
     assert!((g.left_right_phase - 0.5).abs() < 0.1, "{g:?}");
@@ -279,10 +279,10 @@ fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
             a.push(-amp * w * w * (w * t).sin());
         }
     }
-    let clamps = cpg_hoap2::ClampReport {
+    let clamps = cpg_robot::ClampReport {
         joints: joints
             .iter()
-            .map(|j| cpg_hoap2::JointClamp { joint: j.clone(), n_frames: n, ..Default::default() })
+            .map(|j| cpg_robot::JointClamp { joint: j.clone(), n_frames: n, ..Default::default() })
             .collect(),
     };
     let t = JointTrajectory {
@@ -293,7 +293,7 @@ fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
         rate_hz: 1000.0,
         clamps,
     };
-    let l = t.limit_loop(&r, cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2).unwrap();
+    let l = t.limit_loop(&r, cpg_robot::DEFAULT_ACCELERATION_RAD_S2).unwrap();
     let d = 2;
     let step = l
         .values_rad
@@ -306,7 +306,7 @@ fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
         assert!(seam <= step + 1e-12, "joint {j}: seam {seam} rad, largest step {step} rad");
         let vseam = (l.velocities_rad_s[j] - l.velocities_rad_s[(n - 1) * d + j]).abs();
         assert!(
-            vseam <= cpg_hoap2::DEFAULT_ACCELERATION_RAD_S2 * 0.001 + 1e-9,
+            vseam <= cpg_robot::DEFAULT_ACCELERATION_RAD_S2 * 0.001 + 1e-9,
             "joint {j}: velocity jumps {vseam} rad/s"
         );
     }
@@ -320,8 +320,8 @@ fn a_loop_limited_as_a_loop_repeats_without_a_seam() {
 /// walked and says what it lacks.
 #[test]
 fn a_robot_is_a_folder_and_its_names_are_data() {
-    use cpg_hoap2::physics::MassModel;
-    use cpg_hoap2::walk::{WalkParams, plan};
+    use cpg_robot::physics::MassModel;
+    use cpg_robot::walk::{WalkParams, plan};
     let dir = std::env::temp_dir().join(format!("cpg-robot-folder-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let rename = |t: &str| t.replace("lleg_joint_", "left_leg_").replace("rleg_joint_", "right_leg_");
@@ -351,7 +351,7 @@ fn a_robot_is_a_folder_and_its_names_are_data() {
         arm_swing: Vec::new(),
     };
     let mass = |r: &Robot, text: &str| MassModel::from_urdf(r, text, Path::new("m.urdf")).unwrap();
-    let a = plan(&hoap2, &mass(&hoap2, cpg_hoap2::assets::HOAP2_URDF), &p).unwrap();
+    let a = plan(&hoap2, &mass(&hoap2, cpg_robot::assets::HOAP2_URDF), &p).unwrap();
     let b = plan(&twin, &mass(&twin, &urdf), &p).unwrap();
     assert_eq!(b.joints, a.joints.iter().map(|j| rename(j)).collect::<Vec<_>>());
     assert_eq!(a.q_rad, b.q_rad);

@@ -4,23 +4,28 @@
 
 use std::path::Path;
 
-use cpg_hoap2::Robot;
-use cpg_hoap2::assets::{HOAP2_MJCF, HOAP2_URDF};
-use cpg_hoap2::physics::{
-    Contact, HOAP2_SHAPES, Shape, box_inertia, centre_of_mass_m, home_pose_rad, mjcf, physical_urdf, standing_height_m,
+use cpg_robot::Robot;
+use cpg_robot::assets::{HOAP2_MJCF, HOAP2_URDF};
+use cpg_robot::physics::{
+    Contact, Shape, box_inertia, centre_of_mass_m, home_pose_rad, mjcf, physical_urdf, standing_height_m,
 };
 
 const PATH: &str = "assets/hoap2/hoap2.urdf";
 
+/// The HOAP-2's body, as its spec (`assets/hoap2/robot.toml`) gives it.
+fn shapes() -> Vec<Shape> {
+    cpg_robot::RobotSpec::hoap2().shapes
+}
+
 #[test]
 fn the_committed_urdf_is_what_the_shape_table_writes() {
-    let again = physical_urdf(HOAP2_URDF, Path::new(PATH), &HOAP2_SHAPES).unwrap();
+    let again = physical_urdf(HOAP2_URDF, Path::new(PATH), &shapes()).unwrap();
     assert!(again == HOAP2_URDF, "assets/hoap2/hoap2.urdf is stale: run `cargo xtask hoap2-model`");
 }
 
 #[test]
 fn the_committed_mjcf_is_built_from_the_committed_urdf() {
-    let built = mjcf(HOAP2_URDF, Path::new(PATH), &HOAP2_SHAPES, &cpg_hoap2::RobotSpec::hoap2()).unwrap();
+    let built = mjcf(HOAP2_URDF, Path::new(PATH), &shapes(), &cpg_robot::RobotSpec::hoap2()).unwrap();
     assert!(built == HOAP2_MJCF, "assets/hoap2/hoap2.xml is stale: run `cargo xtask hoap2-model`");
 }
 
@@ -31,8 +36,9 @@ fn every_link_has_one_massive_box_and_keeps_its_mass() {
     assert!((robot.mass_kg - 7.15989).abs() < 1e-5, "total mass {} kg", robot.mass_kg);
     let parsed = urdf_rs::read_from_string(HOAP2_URDF).unwrap();
     assert_eq!(parsed.links.len(), 26);
+    let all = shapes();
     for link in &parsed.links {
-        let solid: Vec<&Shape> = HOAP2_SHAPES.iter().filter(|s| s.link == link.name && s.carries_mass).collect();
+        let solid: Vec<&Shape> = all.iter().filter(|s| s.link == link.name && s.carries_mass).collect();
         assert_eq!(solid.len(), 1, "link {}", link.name);
         let s = solid[0];
         let m = link.inertial.mass.value;
@@ -63,7 +69,8 @@ fn box_inertia_is_the_textbook_one() {
 
 #[test]
 fn the_soles_are_the_reference_size_and_touch_the_floor() {
-    let soles: Vec<&Shape> = HOAP2_SHAPES.iter().filter(|s| s.name.ends_with("sole")).collect();
+    let all = shapes();
+    let soles: Vec<&Shape> = all.iter().filter(|s| s.name.ends_with("sole")).collect();
     assert_eq!(soles.len(), 2);
     for s in soles {
         assert_eq!(s.size_m, [0.094, 0.062, 0.005]);
@@ -74,8 +81,8 @@ fn the_soles_are_the_reference_size_and_touch_the_floor() {
     // keyframe's height puts them on the floor, the soles flat.
     let robot = Robot::hoap2().unwrap();
     let home = home_pose_rad(&robot).unwrap();
-    let all = standing_height_m(&robot, &HOAP2_SHAPES, &home).unwrap();
-    let soles_only: Vec<Shape> = HOAP2_SHAPES.iter().filter(|s| s.name.ends_with("sole")).copied().collect();
+    let all = standing_height_m(&robot, &shapes(), &home).unwrap();
+    let soles_only: Vec<Shape> = shapes().iter().filter(|s| s.name.ends_with("sole")).cloned().collect();
     let by_soles = standing_height_m(&robot, &soles_only, &home).unwrap();
     assert!((all - by_soles).abs() < 1e-12, "something hangs below the soles: {all} against {by_soles}");
     assert!((0.25..0.30).contains(&all), "trunk origin {all} m high");
@@ -98,7 +105,8 @@ fn the_home_centre_of_mass_is_over_the_soles() {
     // The soles' centres in the trunk frame.
     let names: Vec<String> = robot.joints.iter().map(|j| j.name.clone()).collect();
     let poses = robot.link_poses(&names, &home).unwrap();
-    let sole = HOAP2_SHAPES.iter().find(|s| s.name == "lleg_sole").unwrap();
+    let all = shapes();
+    let sole = all.iter().find(|s| s.name == "lleg_sole").unwrap();
     let mut xs = Vec::new();
     let mut ys = Vec::new();
     for foot in ["lleg_link6", "rleg_link6"] {
@@ -117,12 +125,11 @@ fn the_home_centre_of_mass_is_over_the_soles() {
 
 #[test]
 fn a_link_without_a_shape_is_an_error_naming_it() {
-    let shapes: Vec<Shape> = HOAP2_SHAPES.iter().filter(|s| s.link != "head").copied().collect();
-    let e = physical_urdf(HOAP2_URDF, Path::new(PATH), &shapes).unwrap_err().to_string();
+    let headless: Vec<Shape> = shapes().iter().filter(|s| s.link != "head").cloned().collect();
+    let e = physical_urdf(HOAP2_URDF, Path::new(PATH), &headless).unwrap_err().to_string();
     assert!(e.contains("head") && e.contains(PATH), "{e}");
-    let e = mjcf("<robot", Path::new("broken.urdf"), &HOAP2_SHAPES, &cpg_hoap2::RobotSpec::hoap2())
-        .unwrap_err()
-        .to_string();
+    let e =
+        mjcf("<robot", Path::new("broken.urdf"), &shapes(), &cpg_robot::RobotSpec::hoap2()).unwrap_err().to_string();
     assert!(e.contains("broken.urdf"), "{e}");
 }
 

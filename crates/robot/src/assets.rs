@@ -38,6 +38,14 @@ impl Robot {
         if spec.as_os_str() == "hoap2" {
             return Robot::hoap2();
         }
+        if !spec.exists() && spec.components().count() == 1 && spec.extension().is_none() {
+            let name = spec.to_string_lossy();
+            return Err(crate::Error::Input(format!(
+                "robot '{name}'{}: neither a built-in robot ({}) nor a robot's folder, robot.toml or URDF",
+                cpg_io::did_you_mean(&name, ROBOTS),
+                ROBOTS.join(", ")
+            )));
+        }
         let is_spec = spec.is_dir() || spec.extension().is_some_and(|e| e == "toml");
         if !is_spec {
             return Robot::from_urdf_file(spec);

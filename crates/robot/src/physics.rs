@@ -4,7 +4,7 @@
 //!
 //! The URDF's joints and masses are the reference's facts
 //! (`shared/reference/hoap2-joints.md`); [`physical_urdf`] keeps them and
-//! rewrites every link from [`HOAP2_SHAPES`]: a uniform solid box of the
+//! rewrites every link from its spec's shapes (`[[shapes]]` in `robot.toml`): a uniform solid box of the
 //! link's mass (inertia `m/12·(b² + c²)` about its centre), which is also the
 //! link's collision and visual shape. [`mjcf`] turns such a URDF into a MuJoCo
 //! scene: a floor, the body tree, a position servo on every joint limited to
@@ -22,7 +22,8 @@ use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use crate::{Error, Result, Robot};
 
 /// Which parts of the body a shape collides with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Contact {
     /// The floor only (trunk, pelvis, arms, head).
     Floor,
@@ -32,104 +33,31 @@ pub enum Contact {
     OtherLeg,
 }
 
-/// One solid box of a link, in the link's frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One solid box of a link, in the link's frame (a robot spec's `[[shapes]]`).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Shape {
     /// The link's name in the URDF.
-    pub link: &'static str,
-    /// The shape's name (the URDF's collision name; the MJCF geom's name).
-    pub name: &'static str,
+    pub link: String,
+    /// The shape's name (the URDF's collision name; the MJCF geom's name); the link's when not given.
+    #[serde(default)]
+    pub name: String,
     /// Edge lengths along the link's x, y, z, metres.
     pub size_m: [f64; 3],
     /// Centre in the link's frame, metres.
     pub centre_m: [f64; 3],
     /// Whether this box carries the link's mass (one per link) or only collides (the soles).
+    #[serde(default = "yes")]
     pub carries_mass: bool,
     /// What it collides with.
     pub contact: Contact,
-    /// Where the numbers come from.
-    pub source: &'static str,
+    /// Where the numbers come from (`reference`, `estimate`).
+    pub source: String,
 }
 
-const REF: &str = "reference";
-const EST: &str = "estimate";
-
-const fn solid(link: &'static str, size_m: [f64; 3], centre_m: [f64; 3], contact: Contact) -> Shape {
-    Shape { link, name: link, size_m, centre_m, carries_mass: true, contact, source: EST }
+fn yes() -> bool {
+    true
 }
-
-/// The foot: the reference's collision box carries the mass; the sole is the reference's sole plate.
-const fn foot(link: &'static str, sole: &'static str) -> [Shape; 2] {
-    [
-        Shape {
-            link,
-            name: link,
-            size_m: [0.095, 0.065, 0.039],
-            centre_m: [0.01, 0.0, -0.015],
-            carries_mass: true,
-            contact: Contact::OtherLeg,
-            source: REF,
-        },
-        Shape {
-            link,
-            name: sole,
-            size_m: [0.094, 0.062, 0.005],
-            centre_m: [0.0112, 0.0, -0.033],
-            carries_mass: false,
-            contact: Contact::FloorAndOtherLeg,
-            source: REF,
-        },
-    ]
-}
-
-const LEG: Contact = Contact::FloorAndOtherLeg;
-const BODY: Contact = Contact::Floor;
-
-/// The HOAP-2's shapes. The foot and sole are the reference's
-/// (`shared/reference/hoap2-joints.md`); the others are our estimates, each
-/// a box spanning its link between the joints the reference places, as
-/// wide as the motors it holds (the density each implies is in
-/// `docs/hoap2-model.md`).
-pub const HOAP2_SHAPES: [Shape; 28] = {
-    let [lfoot, lsole] = foot("lleg_link6", "lleg_sole");
-    let [rfoot, rsole] = foot("rleg_link6", "rleg_sole");
-    [
-        // The upper trunk: from the waist joint to above the shoulders, between the arms.
-        solid("trunk", [0.09, 0.14, 0.11], [-0.034, 0.0, 0.055], BODY),
-        // The pelvis: between the waist and the hip joints, as wide as both hips.
-        solid("pelvis", [0.08, 0.12, 0.04], [-0.034, 0.0, -0.025], BODY),
-        solid("lleg_link1", [0.03, 0.03, 0.02], [0.0, 0.0, 0.0], LEG),
-        // The hip's pitch and roll motors.
-        solid("lleg_link3", [0.05, 0.04, 0.05], [0.0, 0.0, 0.0], LEG),
-        solid("lleg_link2", [0.04, 0.04, 0.1], [0.0, 0.0, -0.05], LEG),
-        solid("lleg_link4", [0.04, 0.04, 0.1], [0.0, 0.0, -0.05], LEG),
-        solid("lleg_link5", [0.04, 0.04, 0.03], [0.0, 0.0, 0.0], LEG),
-        lfoot,
-        lsole,
-        solid("rleg_link1", [0.03, 0.03, 0.02], [0.0, 0.0, 0.0], LEG),
-        solid("rleg_link3", [0.05, 0.04, 0.05], [0.0, 0.0, 0.0], LEG),
-        solid("rleg_link2", [0.04, 0.04, 0.1], [0.0, 0.0, -0.05], LEG),
-        solid("rleg_link4", [0.04, 0.04, 0.1], [0.0, 0.0, -0.05], LEG),
-        solid("rleg_link5", [0.04, 0.04, 0.03], [0.0, 0.0, 0.0], LEG),
-        rfoot,
-        rsole,
-        // Shoulder motors, then the upper arm (0.101 m to the elbow), the
-        // forearm (0.100 m to the wrist) and the hand, along +x.
-        solid("larm_link1", [0.04, 0.04, 0.04], [0.0, 0.0, 0.0], BODY),
-        solid("larm_link2", [0.04, 0.04, 0.04], [0.0, 0.0, 0.0], BODY),
-        solid("larm_link3", [0.101, 0.04, 0.04], [0.0505, 0.0, 0.0], BODY),
-        solid("larm_link4", [0.1, 0.035, 0.035], [0.05, 0.0, 0.0], BODY),
-        solid("larm_link5", [0.05, 0.02, 0.03], [0.025, 0.0, 0.0], BODY),
-        solid("rarm_link1", [0.04, 0.04, 0.04], [0.0, 0.0, 0.0], BODY),
-        solid("rarm_link2", [0.04, 0.04, 0.04], [0.0, 0.0, 0.0], BODY),
-        solid("rarm_link3", [0.101, 0.04, 0.04], [0.0505, 0.0, 0.0], BODY),
-        solid("rarm_link4", [0.1, 0.035, 0.035], [0.05, 0.0, 0.0], BODY),
-        solid("rarm_link5", [0.05, 0.02, 0.03], [0.025, 0.0, 0.0], BODY),
-        // The neck: from its yaw joint to the head's pitch joint (0.008, 0, 0.081).
-        solid("neck", [0.02, 0.02, 0.081], [0.004, 0.0, 0.0405], BODY),
-        solid("head", [0.06, 0.07, 0.05], [0.01, 0.0, 0.025], BODY),
-    ]
-};
 
 /// The simulation settings of [`mjcf`]. None of these is in the sources:
 /// each is ours, stated in `docs/hoap2-model.md`.
@@ -212,7 +140,7 @@ pub fn physical_urdf(text: &str, path: &Path, shapes: &[Shape]) -> Result<String
     let mut out = String::new();
     out.push_str("<?xml version=\"1.0\"?>\n");
     out.push_str(
-        "<!-- Fujitsu HOAP-2, 25 revolute joints. Written by `cargo xtask hoap2-model` (cpg-hoap2's\n     \
+        "<!-- Fujitsu HOAP-2, 25 revolute joints. Written by `cargo xtask hoap2-model` (cpg-robot's\n     \
          physics module) from the facts in shared/reference/hoap2-joints.md: joint names, parents,\n     \
          anchors, axes, limits and link masses of the Webots model, cross-checked against the Moby\n     \
          model. Frame: x forward, y left, z up; the trunk origin stands 0.29 m above the ground in\n     \
@@ -437,7 +365,7 @@ fn mjcf_header(name: &str, s: &MjcfSettings) -> String {
     let _ = writeln!(
         out,
         "<!-- The {} in MuJoCo, written by `cargo xtask hoap2-model` from assets/hoap2/hoap2.urdf\n     \
-         (cpg-hoap2's physics module; docs/hoap2-model.md states every setting). Servo stiffness,\n     \
+         (cpg-robot's physics module; docs/hoap2-model.md states every setting). Servo stiffness,\n     \
          damping, armature, joint friction and the floor's friction are ours, not the sources'.\n     \
          The 5 rad/s speed limit is the commander's to keep: MuJoCo has none. -->",
         name

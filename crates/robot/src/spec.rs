@@ -40,6 +40,14 @@
 //!
 //! [home_pose_deg]           # joints not named stand at 0
 //! lleg_joint_3 = -20.0
+//!
+//! [[shapes]]                # the body: a solid box per link, in its frame
+//! link = "trunk"
+//! size_m = [0.09, 0.14, 0.11]
+//! centre_m = [-0.034, 0.0, 0.055]
+//! contact = "floor"         # floor, floor_and_other_leg, other_leg
+//! source = "estimate"       # where the numbers come from
+//! # name (the link's by default) and carries_mass = false for a shape that only collides (a sole)
 //! ```
 //!
 //! [`RobotSpec::check`] holds the spec against its URDF: every joint it
@@ -172,6 +180,10 @@ pub struct RobotSpec {
     /// The home pose, degrees per joint (others at 0).
     #[serde(default)]
     pub home_pose_deg: BTreeMap<String, f64>,
+    /// The body: one solid box per link (and the soles), from which
+    /// [`crate::physics`] writes the physical URDF and the MuJoCo scene.
+    #[serde(default)]
+    pub shapes: Vec<crate::physics::Shape>,
 }
 
 /// The HOAP-2's spec, compiled in (`assets/hoap2/robot.toml`).
@@ -180,10 +192,15 @@ pub const HOAP2_SPEC: &str = include_str!("../../../assets/hoap2/robot.toml");
 impl RobotSpec {
     /// Parses a spec's text; `label` names it in errors (line and column included).
     pub fn parse(label: &str, text: &str) -> Result<RobotSpec> {
-        let spec: RobotSpec = toml::from_str(text).map_err(|e| {
+        let mut spec: RobotSpec = toml::from_str(text).map_err(|e| {
             let at = e.span().map(|s| line_col(text, s.start)).map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
             Error::Input(format!("{label}{at}: {}", e.message()))
         })?;
+        for shape in &mut spec.shapes {
+            if shape.name.is_empty() {
+                shape.name = shape.link.clone();
+            }
+        }
         spec.validate(label)?;
         Ok(spec)
     }
@@ -242,6 +259,25 @@ impl RobotSpec {
         }
         if self.feet.sole_in_ankle_m.iter().any(|v| !v.is_finite() || v.abs() > 1.0) {
             return fail("feet.sole_in_ankle_m", "expected three finite numbers within 1 m".into());
+        }
+        if self.shapes.len() > 10_000 {
+            return fail("shapes", format!("{} of them; at most 10000", self.shapes.len()));
+        }
+        for (i, shape) in self.shapes.iter().enumerate() {
+            let sizes_ok = shape.size_m.iter().all(|v| v.is_finite() && *v > 0.0 && *v < 10.0);
+            let centre_ok = shape.centre_m.iter().all(|v| v.is_finite() && v.abs() < 10.0);
+            if !sizes_ok || !centre_ok {
+                return fail(
+                    &format!("shapes[{i}] ({})", shape.name),
+                    "expected sizes within (0, 10) m and a centre within 10 m".into(),
+                );
+            }
+            if shape.carries_mass && self.shapes.iter().filter(|o| o.link == shape.link && o.carries_mass).count() > 1 {
+                return fail(
+                    &format!("shapes[{i}] ({})", shape.name),
+                    format!("link '{}' has more than one shape carrying its mass", shape.link),
+                );
+            }
         }
         for (joint, deg) in &self.home_pose_deg {
             if !deg.is_finite() || deg.abs() > 360.0 {

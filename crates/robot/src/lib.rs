@@ -1,6 +1,8 @@
-//! # cpg-hoap2
+//! # cpg-robot
 //!
-//! Joint commands for the Fujitsu HOAP-2 humanoid:
+//! A humanoid robot as data: its URDF and its `robot.toml` ([`spec`]), and
+//! joint commands for it. The Fujitsu HOAP-2 (`assets/hoap2`) is the first
+//! robot and the one compiled in:
 //!
 //! - [`Robot`]: the revolute joints of a URDF (names, axes, anchors, limits in
 //!   radians), read with urdf-rs. The project's `assets/hoap2/hoap2.urdf`
@@ -329,7 +331,7 @@ impl Robot {
     pub fn spec(&self) -> Result<&RobotSpec> {
         self.spec.as_deref().ok_or_else(|| {
             Error::Input(format!(
-                "robot '{}' was read from a URDF alone; walking it needs its folder's robot.toml (legs, feet, sensors, servos: crates/hoap2/src/spec.rs)",
+                "robot '{}' was read from a URDF alone; walking it needs its folder's robot.toml (legs, feet, sensors, servos: crates/robot/src/spec.rs)",
                 self.name
             ))
         })
