@@ -227,7 +227,7 @@ pub struct BodySwitch {
     pub stride_s: f64,
     /// Largest frame-to-frame step from the switch to the next, normalised units.
     pub max_step: f64,
-    /// The largest ratio of a channel's step to that channel's largest in the recorded training trials.
+    /// The largest ratio of a channel's step to that channel's largest in every recorded trial (training and held-out).
     pub step_ratio: f64,
     /// The channel of that ratio.
     pub step_channel: String,
@@ -1351,7 +1351,7 @@ impl BodyResult {
             .collect(),
             self.part_verdict(
                 |s| combine(&s.switches.iter().map(|w| (w.passed, w.at_limit)).collect::<Vec<_>>()),
-                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in the recorded training trials, no foot sliding during a stance more than the recorded training trials' own largest slide by the same measure ({:.0} mm; on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its figure carried by its feet and its feet cleaned up, as every run of the model is: a foot coming down slower than {PLANT_MM_S} mm/s planted where it lands and held there by inverse kinematics of the hip and the knee, one dragged faster lifted {CLEAR_MM} mm clear; the slides before the cleanup beside)", self.test.ramp_s, self.test.stay_s, self.slide_limit_mm(), FLOOR_QUANTILE * 100.0),
+                format!("at least 90 % of the seeds: every switch ({}-s cosine ramps, each state held {} s) on the orbit the generator keeps with the new inputs held (from its long run) within {SETTLE_STRIDES} strides of the ramp's end, no channel stepping further between frames than its largest step in every recorded trial of the person (training and held-out, as the period's range), no foot sliding during a stance more than the recorded training trials' own largest slide by the same measure ({:.0} mm; on the ground: within {CONTACT_MM} mm of its floor, the {:.0} % quantile of its heights in the recorded training trials; forward kinematics of the generated motion with its figure carried by its feet and its feet cleaned up, as every run of the model is: a foot coming down slower than {PLANT_MM_S} mm/s planted where it lands and held there by inverse kinematics of the hip and the knee, one dragged faster lifted {CLEAR_MM} mm clear; the slides before the cleanup beside)", self.test.ramp_s, self.test.stay_s, self.slide_limit_mm(), FLOOR_QUANTILE * 100.0),
             ),
         ));
         claims.push(claim(
