@@ -386,15 +386,6 @@ pub fn feet_led(m: &TrainedCpg, y: &mut [f64]) -> Result<()> {
     Ok(())
 }
 
-/// The run `y` of `m` carried by its feet as [`feet_led`] does, without the
-/// feet's cleanup: the generator's legs as they are.
-pub fn feet_led_raw(m: &TrainedCpg, y: &mut [f64]) -> Result<()> {
-    if let Some(t) = FeetTravel::for_model(m)? {
-        t.raw().apply_run(y, m.outputs.len());
-    }
-    Ok(())
-}
-
 /// Each foot's floor in the model's taught rhythms (postures aside): the
 /// [`crate::measure::FLOOR_QUANTILE`] of its heights, mm.
 fn teacher_floors(m: &TrainedCpg, sk: &Skeleton, feet: &[String]) -> Result<Vec<f64>> {

@@ -843,8 +843,11 @@ impl Test<'_> {
         let mut units = cpg_reservoir::to_units(&m.outputs, &sw);
         cpg_reservoir::integrate_in_place(&m.outputs, &mut units, rate);
         let mut raw = units.clone();
-        crate::travel::feet_led(m, &mut units)?;
-        crate::travel::feet_led_raw(m, &mut raw)?;
+        // One travel (its skeleton read and floors found once), with and without the feet's cleanup.
+        if let Some(travel) = crate::travel::FeetTravel::for_model(m)? {
+            travel.clone().apply_run(&mut units, d);
+            travel.raw().apply_run(&mut raw, d);
+        }
         let (feet, legs) = match &self.skeleton {
             Some(sk) => (
                 Some(sk.forward_kinematics(&as_motion(m, &units)?)?),
