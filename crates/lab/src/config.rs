@@ -250,6 +250,9 @@ pub struct TrainingSection {
     /// FORCE's settings (with `trainer = "force"`).
     #[serde(default)]
     pub force: cpg_reservoir::ForceSettings,
+    /// Rounds of ridge training on the network's own output (none by default).
+    #[serde(default)]
+    pub self_fed: cpg_reservoir::SelfFed,
 }
 
 /// How the readout is learnt.
@@ -281,6 +284,7 @@ impl Default for TrainingSection {
             orbit: None,
             trainer: Trainer::default(),
             force: cpg_reservoir::ForceSettings::default(),
+            self_fed: cpg_reservoir::SelfFed::default(),
         }
     }
 }
@@ -1511,6 +1515,20 @@ impl TrainingSection {
         }
         if !(1..=100).contains(&t.force.passes) {
             return fail("training.force.passes", format!("{}; expected 1 to 100", t.force.passes));
+        }
+        let sf = t.self_fed;
+        if sf.rounds > 10 {
+            return fail("training.self_fed.rounds", format!("{}; expected 0 to 10", sf.rounds));
+        }
+        if sf.rounds > 0 {
+            for (key, v) in [("free_steps", sf.free_steps), ("forced_steps", sf.forced_steps)] {
+                if !(1..=100_000).contains(&v) {
+                    return fail(&format!("training.self_fed.{key}"), format!("{v}; expected 1 to 100000 steps"));
+                }
+            }
+            if t.trainer == Trainer::Force {
+                return fail("training.self_fed", "is a ridge regression's; FORCE already learns on its own output");
+            }
         }
         Ok(())
     }

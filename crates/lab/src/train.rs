@@ -31,6 +31,7 @@ pub fn train_settings(c: &Config) -> Result<TrainSettings> {
         noise_seed: t.noise_seed,
         teacher_noise: t.teacher_noise,
         prefer_larger_within: t.prefer_larger_within,
+        self_fed: t.self_fed,
     })
 }
 
@@ -46,7 +47,14 @@ pub fn memory_estimate_mib(rc: &ReservoirConfig, s: &TrainSettings, p: &Prepared
         Precision::F64 => 8.0,
     };
     let cols = s.penalties.len() as f64 * s.n_noise_draws as f64;
-    let harvest = rows * (n + d) * 8.0;
+    // Training on the own output adds up to a share free / (free + forced) of the rows per round, and stacking copies them once.
+    let sf = s.self_fed;
+    let grown = if sf.rounds == 0 {
+        1.0
+    } else {
+        2.0 * (1.0 + sf.rounds as f64 * sf.free_steps as f64 / (sf.free_steps + sf.forced_steps) as f64)
+    };
+    let harvest = grown * rows * (n + d) * 8.0;
     let gram = 4.0 * n * n * 8.0 + s.penalties.len() as f64 * n * d * 8.0;
     let validation = 3.0 * cols * n * word + s.n_noise_draws as f64 * steps * n * word + cols * steps * d * 8.0;
     ((harvest + gram + validation) / (1024.0 * 1024.0)).ceil() as u64

@@ -245,28 +245,47 @@ impl<R: SimdDot> Engine<R> {
     /// `k`, calling `record(k, x)` with the state after each update (the state
     /// whose readout should predict `teacher[k + 1]`). `x` has the padded height.
     pub fn teacher_force(&self, x: &mut [R], teacher: &[f64], controls: &[f64], record: impl FnMut(usize, &[R])) {
-        struct Op<'a, R: SimdDot, F>(&'a Engine<R>, &'a mut [R], &'a [f64], &'a [f64], F);
-        impl<R: SimdDot, F: FnMut(usize, &[R])> WithSimd for Op<'_, R, F> {
+        let d = self.shared.d;
+        let t = teacher.len() / d.max(1);
+        self.drive(x, controls, t, |k, _, fed| fed.copy_from_slice(&teacher[k * d..(k + 1) * d]), record)
+    }
+
+    /// Drives the reservoir for `t` steps, the caller choosing what is fed
+    /// back: before step `k`, `feed(k, x, fed)` sees the state (its first N
+    /// values) and writes the `D` fed-back outputs; after it, `record(k, x)`
+    /// sees the new state. Teacher forcing feeds the teacher; training on the
+    /// network's own output feeds its readout. Allocates only before the first step.
+    pub fn drive(
+        &self,
+        x: &mut [R],
+        controls: &[f64],
+        t: usize,
+        feed: impl FnMut(usize, &[R], &mut [f64]),
+        record: impl FnMut(usize, &[R]),
+    ) {
+        struct Op<'a, R: SimdDot, F, G>(&'a Engine<R>, &'a mut [R], &'a [f64], usize, F, G);
+        impl<R: SimdDot, F: FnMut(usize, &[R], &mut [f64]), G: FnMut(usize, &[R])> WithSimd for Op<'_, R, F, G> {
             type Output = ();
             #[inline(always)]
             fn with_simd<S: Simd>(self, simd: S) {
-                self.0.teacher_force_simd(simd, self.1, self.2, self.3, self.4)
+                self.0.drive_simd(simd, self.1, self.2, self.3, self.4, self.5)
             }
         }
-        self.shared.arch.dispatch(Op(self, x, teacher, controls, record))
+        self.shared.arch.dispatch(Op(self, x, controls, t, feed, record))
     }
 
     #[inline(always)]
-    fn teacher_force_simd<S: Simd>(
+    fn drive_simd<S: Simd>(
         &self,
         simd: S,
         x: &mut [R],
-        teacher: &[f64],
         controls: &[f64],
+        t: usize,
+        mut feed: impl FnMut(usize, &[R], &mut [f64]),
         mut record: impl FnMut(usize, &[R]),
     ) {
         let Shared { n, np, d, u, .. } = self.shared;
-        let t = teacher.len() / d;
+        let mut fed = vec![0.0; d];
         let mut y = vec![R::ZERO; d];
         let mut uu = vec![R::ZERO; u];
         let mut pre_buf = Aligned::zeros(np);
@@ -277,7 +296,8 @@ impl<R: SimdDot> Engine<R> {
             if k.is_multiple_of(crate::watch::CHECK_EVERY_STEPS) && watch.as_ref().is_some_and(|w| w.cancelled()) {
                 return;
             }
-            for (a, b) in y.iter_mut().zip(&teacher[k * d..(k + 1) * d]) {
+            feed(k, &x[..n], &mut fed);
+            for (a, b) in y.iter_mut().zip(&fed) {
                 *a = R::from_f64(*b);
             }
             for (a, b) in uu.iter_mut().zip(&controls[k * u..(k + 1) * u]) {

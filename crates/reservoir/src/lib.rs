@@ -59,6 +59,6 @@ pub use orbit::{OrbitStay, STILL_VARIANCE, orbit_nmse};
 pub use real::Real;
 pub use reservoir::{Reservoir, spectral_radius};
 pub use train::{
-    Candidate, Harvest, Score, Scoring, Sequence, TrainSettings, Training, TrainingData, ValidationPoint, harvest,
-    teacher_forced_states, train, train_on, validate,
+    Candidate, Harvest, Score, Scoring, SelfFed, Sequence, TrainSettings, Training, TrainingData, ValidationPoint,
+    harvest, teacher_forced_states, train, train_on, validate,
 };

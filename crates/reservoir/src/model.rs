@@ -5,7 +5,7 @@
 //! | bytes | content |
 //! |---|---|
 //! | 0..8 | magic `CPGMODEL` |
-//! | 8..12 | format version (u32), currently 3 (version 2 is read too) |
+//! | 8..12 | format version (u32), currently 5 (versions 2 to 4 are read too) |
 //! | 12..20 | payload length in bytes (u64) |
 //! | 20..28 | FNV-1a 64 checksum of the payload |
 //! | 28.. | payload: bincode 2 (standard config) of the model with its configuration, provenance and weights |
@@ -30,12 +30,13 @@ use crate::train::{Scoring, TrainSettings, Training, ValidationPoint};
 
 /// Magic bytes that open every model file.
 pub const MAGIC: &[u8; 8] = b"CPGMODEL";
-/// The format version this build writes and reads. Version 4 stores the
-/// reservoir's configuration as JSON text (self-describing: a parameter
-/// added later reads as its default from older files); versions 2 and 3
-/// stored it as fixed bincode fields, and version 2 stored W scaled by the
-/// spectral radius.
-pub const FORMAT_VERSION: u32 = 4;
+/// The format version this build writes and reads. Version 5 stores the
+/// training settings as JSON text too (versions 2 to 4 stored them as fixed
+/// bincode fields, [`SettingsV4`]); version 4 stores the reservoir's
+/// configuration as JSON text (self-describing: a parameter added later
+/// reads as its default from older files); versions 2 and 3 stored it as
+/// fixed bincode fields, and version 2 stored W scaled by the spectral radius.
+pub const FORMAT_VERSION: u32 = 5;
 /// The oldest format version this build reads.
 const OLDEST_VERSION: u32 = 2;
 /// The largest sample rate a model may have, Hz.
@@ -61,9 +62,9 @@ const HEADER: usize = 28;
 /// Decodes a payload with a bound on what its length prefixes may claim: a
 /// few times the payload's own size (in steps), so that a corrupt length
 /// (a string of 2^56 bytes in a 260-byte file) is an error, not an allocation.
-fn decode_payload<C: serde::de::DeserializeOwned>(
+fn decode_payload<C: serde::de::DeserializeOwned, S: serde::de::DeserializeOwned>(
     payload: &[u8],
-) -> std::result::Result<(Payload<C>, usize), bincode::error::DecodeError> {
+) -> std::result::Result<(Payload<C, S>, usize), bincode::error::DecodeError> {
     use bincode::config::standard;
     use bincode::serde::decode_from_slice;
     const MIB: usize = 1 << 20;
@@ -257,9 +258,10 @@ pub struct TrainedCpg {
 }
 
 /// The serialisable form of a model (the payload of a file): `C` is the
-/// configuration's form, JSON text from version 4 on, [`ConfigV3`] before.
+/// configuration's form, JSON text from version 4 on, [`ConfigV3`] before;
+/// `S` the training settings' form, JSON text from version 5 on, [`SettingsV4`] before.
 #[derive(Serialize, Deserialize)]
-struct Payload<C> {
+struct Payload<C, S> {
     config: C,
     seed: u64,
     w: Vec<f64>,
@@ -271,9 +273,35 @@ struct Payload<C> {
     start_state: Vec<f64>,
     outputs: Vec<OutputChannel>,
     controls: Vec<String>,
-    provenance: Provenance,
+    provenance: StoredProvenance<S>,
     teachers: Vec<Teacher>,
     skeleton_asf: Option<String>,
+}
+
+/// [`Provenance`] as a file stores it, the settings in the form `S` (the fields in the same order).
+#[derive(Serialize, Deserialize)]
+struct StoredProvenance<S> {
+    data: String,
+    settings: S,
+    chosen_penalty: f64,
+    validation_curve: Vec<ValidationPoint>,
+    train_nmse: f64,
+    scoring: Scoring,
+    sample_rate_hz: f64,
+    crate_version: String,
+}
+
+/// The training settings as versions 2 to 4 stored them: bincode fields in
+/// this order. Frozen: only for reading and writing old files.
+#[derive(Serialize, Deserialize)]
+struct SettingsV4 {
+    washout: usize,
+    penalties: cpg_regression::PenaltyGrid,
+    noise_variance: f64,
+    n_noise_draws: usize,
+    noise_seed: u64,
+    teacher_noise: f64,
+    prefer_larger_within: f64,
 }
 
 /// The reservoir configuration as versions 2 and 3 stored it: bincode
@@ -299,12 +327,14 @@ fn convert<From: Serialize, To: serde::de::DeserializeOwned>(from: &From) -> std
     serde_json::to_value(from).and_then(serde_json::from_value).map_err(|e| format!("its reservoir configuration: {e}"))
 }
 
-impl<C> Payload<C> {
-    /// The same payload with its configuration turned into another form.
-    fn map_config<D>(
+impl<C, S> Payload<C, S> {
+    /// The same payload with its configuration and settings turned into other forms.
+    fn map<D, T>(
         self,
         f: impl FnOnce(C) -> std::result::Result<D, String>,
-    ) -> std::result::Result<Payload<D>, String> {
+        g: impl FnOnce(S) -> std::result::Result<T, String>,
+    ) -> std::result::Result<Payload<D, T>, String> {
+        let p = self.provenance;
         Ok(Payload {
             config: f(self.config)?,
             seed: self.seed,
@@ -317,22 +347,54 @@ impl<C> Payload<C> {
             start_state: self.start_state,
             outputs: self.outputs,
             controls: self.controls,
-            provenance: self.provenance,
+            provenance: StoredProvenance {
+                data: p.data,
+                settings: g(p.settings)?,
+                chosen_penalty: p.chosen_penalty,
+                validation_curve: p.validation_curve,
+                train_nmse: p.train_nmse,
+                scoring: p.scoring,
+                sample_rate_hz: p.sample_rate_hz,
+                crate_version: p.crate_version,
+            },
             teachers: self.teachers,
             skeleton_asf: self.skeleton_asf,
         })
     }
 }
 
+/// The payload's bytes (bincode, standard configuration).
+fn encode<C: Serialize, S: Serialize>(file: &Payload<C, S>) -> Result<Vec<u8>> {
+    bincode::serde::encode_to_vec(file, bincode::config::standard())
+        .map_err(|e| Error::Shape(format!("encoding the model: {e}")))
+}
+
+/// The training settings from their JSON text (version 5 on).
+fn settings_from_json(text: String) -> std::result::Result<TrainSettings, String> {
+    serde_json::from_str(&text).map_err(|e| format!("its training settings: {e}"))
+}
+
 /// Decodes the payload of a file of format `version` (2 to [`FORMAT_VERSION`]).
-fn decode_versioned(payload: &[u8], version: u32) -> std::result::Result<(Payload<ReservoirConfig>, usize), String> {
-    if version >= 4 {
-        let (f, used) = decode_payload::<String>(payload).map_err(|e| decode_error(&e))?;
-        let json = |text: String| serde_json::from_str(&text).map_err(|e| format!("its reservoir configuration: {e}"));
-        Ok((f.map_config(json)?, used))
-    } else {
-        let (f, used) = decode_payload::<ConfigV3>(payload).map_err(|e| decode_error(&e))?;
-        Ok((f.map_config(|c| convert(&c))?, used))
+fn decode_versioned(
+    payload: &[u8],
+    version: u32,
+) -> std::result::Result<(Payload<ReservoirConfig, TrainSettings>, usize), String> {
+    let config_json =
+        |text: String| serde_json::from_str(&text).map_err(|e| format!("its reservoir configuration: {e}"));
+    let settings_v4 = |s: SettingsV4| convert(&s).map_err(|e| format!("its training settings: {e}"));
+    match version {
+        5.. => {
+            let (f, used) = decode_payload::<String, String>(payload).map_err(|e| decode_error(&e))?;
+            Ok((f.map(config_json, settings_from_json)?, used))
+        }
+        4 => {
+            let (f, used) = decode_payload::<String, SettingsV4>(payload).map_err(|e| decode_error(&e))?;
+            Ok((f.map(config_json, settings_v4)?, used))
+        }
+        _ => {
+            let (f, used) = decode_payload::<ConfigV3, SettingsV4>(payload).map_err(|e| decode_error(&e))?;
+            Ok((f.map(|c| convert(&c), settings_v4)?, used))
+        }
     }
 }
 
@@ -461,8 +523,9 @@ impl TrainedCpg {
     }
 
     /// Serialises the model into the file format of an older `version`
-    /// (2 or 3, for an older cpg to read) or the current one. Version 2
-    /// stored W scaled by the spectral radius.
+    /// (2 to 4, for an older cpg to read) or the current one. Version 2
+    /// stored W scaled by the spectral radius. A setting the old format
+    /// cannot record (training on the own output) is an error, not dropped.
     pub fn to_bytes_version(&self, version: u32) -> Result<Vec<u8>> {
         if version == FORMAT_VERSION {
             return self.to_bytes();
@@ -472,20 +535,33 @@ impl TrainedCpg {
                 "format version {version}; this build writes versions {OLDEST_VERSION} to {FORMAT_VERSION}"
             )));
         }
+        let s = &self.provenance.settings;
+        if s.self_fed != crate::train::SelfFed::default() {
+            return Err(Error::Shape(format!(
+                "format version {version} cannot record training on the model's own output (version 5 can)"
+            )));
+        }
+        let settings: SettingsV4 = convert(s).map_err(Error::Shape)?;
         let c = self.reservoir.config();
-        let rho = if version == 2 { c.spectral_radius } else { 1.0 };
-        let config: ConfigV3 = convert(c).map_err(Error::Shape)?;
-        let mut file = self.payload(config);
-        file.w.iter_mut().for_each(|v| *v *= rho);
-        let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
-            .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
+        let payload = if version == 4 {
+            let config = serde_json::to_string(c)
+                .map_err(|e| Error::Shape(format!("encoding the model's configuration: {e}")))?;
+            encode(&self.payload(config, settings))?
+        } else {
+            let rho = if version == 2 { c.spectral_radius } else { 1.0 };
+            let config: ConfigV3 = convert(c).map_err(Error::Shape)?;
+            let mut file = self.payload(config, settings);
+            file.w.iter_mut().for_each(|v| *v *= rho);
+            encode(&file)?
+        };
         let mut out = TrainedCpg::frame_payload(&payload);
         out[8..12].copy_from_slice(&version.to_le_bytes());
         Ok(out)
     }
 
-    /// The model's parts in the file's form, with `config`.
-    fn payload<C>(&self, config: C) -> Payload<C> {
+    /// The model's parts in the file's form, with `config` and `settings`.
+    fn payload<C, S>(&self, config: C, settings: S) -> Payload<C, S> {
+        let p = &self.provenance;
         Payload {
             config,
             seed: self.reservoir.seed(),
@@ -498,7 +574,16 @@ impl TrainedCpg {
             start_state: self.start_state.clone(),
             outputs: self.outputs.clone(),
             controls: self.controls.clone(),
-            provenance: self.provenance.clone(),
+            provenance: StoredProvenance {
+                data: p.data.clone(),
+                settings,
+                chosen_penalty: p.chosen_penalty,
+                validation_curve: p.validation_curve.clone(),
+                train_nmse: p.train_nmse,
+                scoring: p.scoring.clone(),
+                sample_rate_hz: p.sample_rate_hz,
+                crate_version: p.crate_version.clone(),
+            },
             teachers: self.teachers.clone(),
             skeleton_asf: self.skeleton_asf.clone(),
         }
@@ -506,12 +591,12 @@ impl TrainedCpg {
 
     /// Serialises the model into the file format.
     pub fn to_bytes(&self) -> Result<Vec<u8>> {
-        let config = serde_json::to_string(self.reservoir.config())
-            .map_err(|e| Error::Shape(format!("encoding the model's configuration: {e}")))?;
-        let file = self.payload(config);
-        let payload = bincode::serde::encode_to_vec(&file, bincode::config::standard())
-            .map_err(|e| Error::Shape(format!("encoding the model: {e}")))?;
-        Ok(TrainedCpg::frame_payload(&payload))
+        let json = |what: &str, v: serde_json::Result<String>| {
+            v.map_err(|e| Error::Shape(format!("encoding the model's {what}: {e}")))
+        };
+        let config = json("configuration", serde_json::to_string(self.reservoir.config()))?;
+        let settings = json("training settings", serde_json::to_string(&self.provenance.settings))?;
+        Ok(TrainedCpg::frame_payload(&encode(&self.payload(config, settings))?))
     }
 
     /// A model file around `payload`: the magic bytes, the format version,
@@ -580,7 +665,16 @@ impl TrainedCpg {
             start_state: f.start_state,
             outputs: f.outputs,
             controls: f.controls,
-            provenance: f.provenance,
+            provenance: Provenance {
+                data: f.provenance.data,
+                settings: f.provenance.settings,
+                chosen_penalty: f.provenance.chosen_penalty,
+                validation_curve: f.provenance.validation_curve,
+                train_nmse: f.provenance.train_nmse,
+                scoring: f.provenance.scoring,
+                sample_rate_hz: f.provenance.sample_rate_hz,
+                crate_version: f.provenance.crate_version,
+            },
             teachers: f.teachers,
             skeleton_asf: f.skeleton_asf,
         };

@@ -133,6 +133,48 @@ pub struct TrainSettings {
     /// small penalties next to the grid's divergent end are fragile.
     #[serde(default)]
     pub prefer_larger_within: f64,
+    /// Rounds of training on the network's own output ([`SelfFed`]; none by default).
+    #[serde(default)]
+    pub self_fed: SelfFed,
+}
+
+/// Training on the network's own output, after the "data as demonstrator"
+/// of Venkatraman, Hebert & Bagnell (2015): once a readout is chosen, the
+/// training sequence is run again with stretches of `free_steps` in which
+/// the network is fed its own output, each after `forced_steps` of teacher
+/// forcing that bring it back to the teacher (both fed with the teacher
+/// noise). The states of the free stretches, paired with the teacher's next
+/// samples, are added to the harvest, so the readout also learns to correct
+/// the errors it makes itself, which teacher noise only imitates; every
+/// penalty is solved again and validated, and the round repeats `rounds`
+/// times. A free stretch ends early when an output strays more than
+/// [`SelfFed::MAX_STRAY`] from the teacher.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SelfFed {
+    /// Rounds (0: off).
+    pub rounds: usize,
+    /// Steps of each free stretch.
+    pub free_steps: usize,
+    /// Steps of teacher forcing before each free stretch.
+    pub forced_steps: usize,
+}
+
+impl SelfFed {
+    /// How far (normalised units) an output may stray from the teacher before
+    /// its free stretch ends: beyond it the state leaves what the readout can
+    /// be taught to bring back in one step.
+    pub const MAX_STRAY: f64 = 1.0;
+
+    fn check(&self) -> Result<()> {
+        if self.rounds > 10 || (self.rounds > 0 && (self.free_steps == 0 || self.forced_steps == 0)) {
+            return Err(Error::Settings(format!(
+                "training on the own output needs 0 to 10 rounds, each with free and forced steps of at least 1 (rounds {}, free {}, forced {})",
+                self.rounds, self.free_steps, self.forced_steps
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl TrainSettings {
@@ -148,6 +190,7 @@ impl TrainSettings {
             noise_seed: 1,
             teacher_noise: 0.0,
             prefer_larger_within: 0.0,
+            self_fed: SelfFed::default(),
         }
     }
 
@@ -166,7 +209,7 @@ impl TrainSettings {
         if !(self.prefer_larger_within.is_finite() && self.prefer_larger_within >= 0.0) {
             return Err(Error::Settings(format!("prefer_larger_within {} must be >= 0", self.prefer_larger_within)));
         }
-        Ok(())
+        self.self_fed.check()
     }
 }
 
@@ -526,6 +569,99 @@ fn score_orbit<R: SimdDot>(
         .collect()
 }
 
+/// Every penalty solved on `states` and `targets`, validated, and the choice.
+type Fitted = (Vec<Candidate>, Vec<ValidationPoint>, Vec<f64>, usize);
+
+fn fit<R: SimdDot>(
+    engine: &Engine<R>,
+    states: &Mat<f64>,
+    targets: &Mat<f64>,
+    data: &TrainingData,
+    settings: &TrainSettings,
+    threads: usize,
+) -> Result<Fitted> {
+    let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
+    let candidates: Vec<Candidate> =
+        sweep(&settings.penalties, |_, penalty| path.solve(penalty).map(|readout| Candidate { penalty, readout }))
+            .into_iter()
+            .collect::<Result<_, _>>()?;
+    let (curve, x0) = validate_in(engine, &candidates, data, settings, threads)?;
+    let chosen = choose(&curve, settings)?;
+    Ok((candidates, curve, x0, chosen))
+}
+
+fn stack(a: &Mat<f64>, b: &Mat<f64>) -> Mat<f64> {
+    let ra = a.nrows();
+    Mat::from_fn(ra + b.nrows(), a.ncols(), |i, j| if i < ra { a[(i, j)] } else { b[(i - ra, j)] })
+}
+
+/// One round of [`SelfFed`]: the training sequence run with stretches fed
+/// by `readout`'s own output, the states of those stretches and the
+/// teacher's next samples. The teacher noise is drawn from its own stream per round.
+fn self_fed_in<R: SimdDot>(
+    engine: &Engine<R>,
+    seq: &Sequence,
+    settings: &TrainSettings,
+    readout: &Readout,
+    round: u64,
+) -> Result<Harvest> {
+    let (n, d, u) = (engine.shared.n, engine.shared.d, engine.shared.u);
+    let t = seq.check("training sequence", d, u)?;
+    let (washout, sf) = (settings.washout, settings.self_fed);
+    if washout + 2 > t {
+        return Err(Error::Settings(format!(
+            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
+        )));
+    }
+    let cycle = sf.forced_steps + sf.free_steps;
+    let mut g = rng(settings.noise_seed, 2_000 + round);
+    let sigma = settings.teacher_noise;
+    let mut row = vec![0.0; n];
+    let mut own = vec![0.0; d];
+    // Whether the current step is fed by the network, and whether this free stretch has strayed.
+    let fed_own = std::cell::Cell::new(false);
+    let mut strayed = false;
+    let mut kept: Vec<f64> = Vec::new();
+    let mut at: Vec<usize> = Vec::new();
+    let mut x = vec![R::ZERO; engine.shared.np];
+    engine.drive(
+        &mut x,
+        &seq.controls[..(t - 1) * u],
+        t - 1,
+        |k, x, fed| {
+            let teacher = &seq.outputs[k * d..(k + 1) * d];
+            let free = k >= washout && (k - washout) % cycle >= sf.forced_steps;
+            if !free {
+                strayed = false;
+            }
+            fed_own.set(false);
+            if free && !strayed {
+                for (r, v) in row.iter_mut().zip(x) {
+                    *r = v.to_f64();
+                }
+                readout.apply(&row, &mut own);
+                strayed =
+                    own.iter().zip(teacher).any(|(a, b)| (a - b).abs().is_nan() || (a - b).abs() > SelfFed::MAX_STRAY);
+                fed_own.set(!strayed);
+            }
+            let source = if fed_own.get() { &own[..] } else { teacher };
+            for (f, v) in fed.iter_mut().zip(source) {
+                *f = if sigma > 0.0 { v + sigma * g.sample::<f64, _>(StandardNormal) } else { *v };
+            }
+        },
+        |k, s| {
+            if fed_own.get() {
+                kept.extend(s.iter().map(|v| v.to_f64()));
+                at.push(k);
+            }
+        },
+    );
+    crate::watch::check()?;
+    let states = Mat::from_fn(at.len(), n, |i, j| kept[i * n + j]);
+    let targets = Mat::from_fn(at.len(), d, |i, j| seq.outputs[(at[i] + 1) * d + j]);
+    Ok(Harvest { states, targets })
+}
+
 /// The candidate validation chooses: the best score, or the largest penalty
 /// scoring within `(1 + prefer_larger_within) ×` it (ties to the larger).
 pub(crate) fn choose(curve: &[ValidationPoint], settings: &TrainSettings) -> Result<usize> {
@@ -552,17 +688,16 @@ fn train_in<R: SimdDot>(
     let engine = Engine::<R>::new(reservoir);
     // Settings first: the harvest and the factorisation are the expensive part.
     settings.check_noise()?;
-    let Harvest { states, targets } =
-        harvest_in(&engine, &data.train, settings.washout, Some((settings.teacher_noise, settings.noise_seed)))?;
+    let noise = (settings.teacher_noise, settings.noise_seed);
+    let Harvest { mut states, mut targets } = harvest_in(&engine, &data.train, settings.washout, Some(noise))?;
+    let (mut candidates, mut curve, mut x0, mut chosen) = fit(&engine, &states, &targets, data, settings, threads)?;
+    for round in 0..settings.self_fed.rounds {
+        let more = self_fed_in(&engine, &data.train, settings, &candidates[chosen].readout, round as u64 + 1)?;
+        states = stack(&states, &more.states);
+        targets = stack(&targets, &more.targets);
+        (candidates, curve, x0, chosen) = fit(&engine, &states, &targets, data, settings, threads)?;
+    }
     let (rows, n, d) = (states.nrows(), engine.shared.n, engine.shared.d);
-    let path = RidgePath::new(states.as_ref(), targets.as_ref())?;
-    let grid = &settings.penalties;
-    let candidates: Vec<Candidate> =
-        sweep(grid, |_, penalty| path.solve(penalty).map(|readout| Candidate { penalty, readout }))
-            .into_iter()
-            .collect::<Result<_, _>>()?;
-    let (curve, x0) = validate_in(&engine, &candidates, data, settings, threads)?;
-    let chosen = choose(&curve, settings)?;
     let Candidate { penalty, readout } =
         candidates.into_iter().nth(chosen).ok_or(Error::Settings("no candidate penalties".into()))?;
     let mut pred = vec![0.0; rows * d];

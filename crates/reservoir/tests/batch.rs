@@ -198,6 +198,11 @@ fn older_model_files_are_read_as_they_were_written() {
         assert_eq!(u32::from_le_bytes(v3[8..12].try_into().unwrap()), 3);
         assert_ne!(v3, bytes);
         assert_eq!(TrainedCpg::from_bytes(&v3, path).unwrap(), m, "a version 3 file is read exactly");
+        // Version 4 stored the training settings as fixed bincode fields.
+        let v4 = m.to_bytes_version(4).unwrap();
+        assert_eq!(u32::from_le_bytes(v4[8..12].try_into().unwrap()), 4);
+        assert_ne!(v4, bytes);
+        assert_eq!(TrainedCpg::from_bytes(&v4, path).unwrap(), m, "a version 4 file is read exactly");
         // Version 2 also stored W scaled by the radius.
         let old = TrainedCpg::from_bytes(&m.to_bytes_version(2).unwrap(), path).unwrap();
         let err: f64 =
@@ -228,10 +233,34 @@ fn a_file_from_the_last_version_3_build_loads() {
     let c = m.reservoir.config();
     assert_eq!(c, &ReservoirConfig { n_neurons: 12, ..ReservoirConfig::wyffels_schrauwen_2009() });
     assert_eq!(m.to_bytes_version(3).unwrap(), bytes, "written back as version 3, the same bytes");
-    // As version 4 the configuration is JSON text, each parameter by name.
-    let v4 = m.to_bytes().unwrap();
-    let text = String::from_utf8_lossy(&v4);
+    // From version 4 on the configuration is JSON text, each parameter by name.
+    let v5 = m.to_bytes().unwrap();
+    let text = String::from_utf8_lossy(&v5);
     assert!(text.contains("\"n_neurons\":12") && text.contains("\"leak_rate\":0.3"), "{text}");
+}
+
+/// A model file written by the last build of format version 4 (the fuzz
+/// seed's payload before version 5) still loads, its training settings read
+/// from their fixed fields; as version 5 they are JSON text, and a setting
+/// version 4 could not hold is refused rather than dropped.
+#[test]
+fn a_file_from_the_last_version_4_build_loads() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let payload = std::fs::read(dir.join("sine-12-v4.payload")).unwrap();
+    let mut bytes = TrainedCpg::frame_payload(&payload);
+    bytes[8..12].copy_from_slice(&4u32.to_le_bytes());
+    let m = TrainedCpg::from_bytes(&bytes, &dir.join("sine-12-v4.payload")).unwrap();
+    assert_eq!(m.provenance.settings.washout, 100);
+    assert_eq!(m.provenance.settings.self_fed, SelfFed::default());
+    assert_eq!(m.to_bytes_version(4).unwrap(), bytes, "written back as version 4, the same bytes");
+    let text = String::from_utf8_lossy(&m.to_bytes().unwrap()).into_owned();
+    assert!(text.contains("\"washout\":100") && text.contains("\"self_fed\""), "{text}");
+    let mut fed = m.clone();
+    fed.provenance.settings.self_fed = SelfFed { rounds: 1, free_steps: 60, forced_steps: 60 };
+    let back = TrainedCpg::from_bytes(&fed.to_bytes().unwrap(), std::path::Path::new("fed.cpg")).unwrap();
+    assert_eq!(back, fed, "version 5 keeps every setting");
+    let e = fed.to_bytes_version(4).unwrap_err().to_string();
+    assert!(e.contains("cannot record"), "{e}");
 }
 
 /// A configuration missing a parameter (a file written before it existed)

@@ -391,6 +391,30 @@ fn teacher_noise_is_seeded_and_the_rule_can_prefer_larger_penalties() {
     assert!(train(&res, &sine_data(), &TrainSettings { teacher_noise: -1.0, ..quick_settings() }).is_err());
 }
 
+#[test]
+fn training_on_its_own_output_is_seeded_checked_and_off_by_default() {
+    let res = Reservoir::new(&config(80).check().unwrap(), 2).unwrap();
+    let base = TrainSettings { teacher_noise: 0.05, ..quick_settings() };
+    let fed = |rounds, free_steps, forced_steps| TrainSettings {
+        self_fed: SelfFed { rounds, free_steps, forced_steps },
+        ..base.clone()
+    };
+    let (a, b) =
+        (train(&res, &sine_data(), &fed(1, 50, 50)).unwrap(), train(&res, &sine_data(), &fed(1, 50, 50)).unwrap());
+    assert_eq!(a, b, "the same settings, the same bits");
+    let plain = train(&res, &sine_data(), &base).unwrap();
+    assert_ne!(a.readout, plain.readout, "the own output's states change the readout");
+    assert_eq!(
+        train(&res, &sine_data(), &fed(0, 50, 50)).unwrap(),
+        plain,
+        "zero rounds is plain training, bit for bit"
+    );
+    for (rounds, free, forced) in [(1, 0, 50), (1, 50, 0), (11, 50, 50)] {
+        let e = train(&res, &sine_data(), &fed(rounds, free, forced)).unwrap_err();
+        assert!(e.to_string().contains("own output"), "{e}");
+    }
+}
+
 /// A generator resumed from another's state continues bit for bit as the
 /// original would have, in both precisions.
 #[test]

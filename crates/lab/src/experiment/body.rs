@@ -1055,6 +1055,18 @@ fn recorded_steps(segments: &[Vec<f64>], held: &[HeldOutGait], d: usize) -> Vec<
     segments.iter().map(|s| channel_steps(s, d)).chain(held.iter().map(|g| g.steps.clone())).fold(vec![0.0; d], widest)
 }
 
+/// How the readout was learnt, in the report's words.
+fn trainer_words(c: &Config) -> String {
+    match c.training.trainer {
+        crate::config::Trainer::Ridge => match c.training.self_fed.rounds {
+            0 => "ridge regression".into(),
+            1 => "ridge regression, a round on its own output".into(),
+            n => format!("ridge regression, {n} rounds on its own output"),
+        },
+        crate::config::Trainer::Force => "FORCE".into(),
+    }
+}
+
 /// Runs the whole body's test on configuration `c`.
 pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progress) -> Result<BodyResult> {
     let seeds = seeds(c, opts)?;
@@ -1150,10 +1162,7 @@ pub fn run(c: &Config, b: &WholeBodySection, opts: Options, progress: &dyn Progr
         data_slide_mm,
         teacher_slide_mm,
         train_wall_s,
-        trainer: match c.training.trainer {
-            crate::config::Trainer::Ridge => "ridge regression".into(),
-            crate::config::Trainer::Force => "FORCE".into(),
-        },
+        trainer: trainer_words(c),
         threads: opts.threads,
         run_s,
         switch_at_s,
