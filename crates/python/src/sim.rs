@@ -2,6 +2,7 @@
 //! MuJoCo step (`cpg_robot::control` on MjData's own arrays).
 
 use cpg_robot::control::{Drive, Driven, Gains, Plan, Schedule, Sensors, WalkController};
+use cpg_robot::imu::{Imu, ImuFaults};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
@@ -32,6 +33,7 @@ pub(crate) struct WalkLoop {
     quat: usize,
     gyro: usize,
     touch: [usize; 2],
+    imu: Imu,
 }
 
 /// A contiguous array's values, borrowed for reading.
@@ -51,7 +53,7 @@ impl WalkLoop {
         sensordata, ctrl, force, velocity, quat_adr, gyro_adr, touch_adr,
         generator=None, drive=None, rate_hz=0.0, handover_s=0.0, first_rad=None, base=None,
         tempo_input=None, walk_input=None, tempo_ramp_s=3.0, stop_at_s=None, stop_ramp_s=2.0,
-        robot="hoap2"
+        robot="hoap2", imu_json="{}"
     ))]
     #[allow(clippy::too_many_arguments)] // keyword-only: one run's settings, each named at the call
     fn new(
@@ -86,8 +88,11 @@ impl WalkLoop {
         stop_at_s: Option<f64>,
         stop_ramp_s: f64,
         robot: &str,
+        imu_json: &str,
     ) -> PyResult<Self> {
         let gains: Gains = serde_json::from_str(gains_json).map_err(|e| err(format!("gains: {e}")))?;
+        let faults: ImuFaults = serde_json::from_str(imu_json).map_err(|e| err(format!("imu: {e}")))?;
+        let imu = Imu::new(faults, dt_s).map_err(err)?;
         let a = angles_rad.as_array();
         let plan =
             Plan::new(clock_s.as_slice()?.to_vec(), a.iter().copied().collect(), a.ncols(), landings).map_err(err)?;
@@ -139,6 +144,7 @@ impl WalkLoop {
             quat: quat_adr,
             gyro: gyro_adr,
             touch: touch_adr,
+            imu,
         })
     }
 
@@ -153,6 +159,8 @@ impl WalkLoop {
             touch_n: [s[self.touch[0]], s[self.touch[1]]],
         };
         drop(r);
+        // What the IMU reports: late, biased, drifting and noisy as the run's world asks.
+        let sensors = self.imu.read(t_s, &sensors);
         let mut w = self.ctrl.bind(py).try_readwrite().map_err(|e| err(format!("ctrl: {e}")))?;
         let out = w.as_slice_mut().map_err(|_| err("ctrl: expected a contiguous float64 array"))?;
         self.c.control(t_s, &sensors, &self.act, out).map_err(err)

@@ -123,3 +123,78 @@ def test_a_robot_is_its_folder_in_the_simulator_too(walk, tmp_path):
     assert from_folder == built_in
     with pytest.raises(Exception, match="robot 'hopa2'.*did you mean 'hoap2'"):
         simulate(*w, seconds=1.0, robot="hopa2")
+
+
+def test_the_world_reaches_the_run_and_the_json_says_what_it_was(walk):
+    """The floor's slope and friction and the IMU's faults change the run,
+    the same seed gives the same run, and the JSON echoes the world; a
+    default World is the simulator's old run, bit for bit."""
+    from cpg.sim import World
+
+    w = read_trajectory(str(walk))
+    gains = Gains.from_json(GAINS.read_text())
+    base = simulate(*w, seconds=3.0, gains=gains)
+    assert simulate(*w, seconds=3.0, gains=gains, world=World()) == base
+    assert base["world"] == {**vars(World())} and base["push_phase"] == "fixed"
+    for world in (
+        World(slope_deg=3.0),
+        World(slope_deg=-3.0, slope_axis="roll"),
+        World(friction=0.3),
+        World(imu_bias_deg=2.0),
+        World(imu_yaw_drift_deg_s=2.0),
+        World(imu_latency_ms=40.0),
+        World(imu_noise_deg=1.0, seed=3),
+    ):
+        r = simulate(*w, seconds=3.0, gains=gains, world=world)
+        assert r["world"] == vars(world), r["world"]
+        moved = (r["forward_m"], r["lateral_m"], r["heading_deg"]) != (base["forward_m"], base["lateral_m"], base["heading_deg"])
+        assert moved, f"{world} changed nothing"
+    noisy = World(imu_noise_deg=1.0, seed=3)
+    assert simulate(*w, seconds=3.0, gains=gains, world=noisy) == simulate(*w, seconds=3.0, gains=gains, world=noisy)
+    other = simulate(*w, seconds=3.0, gains=gains, world=World(imu_noise_deg=1.0, seed=4))
+    assert other["forward_m"] != simulate(*w, seconds=3.0, gains=gains, world=noisy)["forward_m"]
+    # Random push times: as many pushes, at other times, the same for the same seed.
+    kw = dict(seconds=6.0, gains=gains, push_every_s=2.0, push_mps=0.05)
+    fixed = simulate(*w, **kw)
+    rand = simulate(*w, **kw, push_phase="random", world=World(seed=5))
+    assert rand["pushes_total"] == fixed["pushes_total"] == 2, (rand, fixed)
+    assert rand["forward_m"] != fixed["forward_m"]
+    assert simulate(*w, **kw, push_phase="random", world=World(seed=5)) == rand
+    for bad, words in (
+        (World(slope_deg=45.0), "slope"),
+        (World(slope_axis="yaw"), "slope axis"),
+        (World(friction=0.0), "friction"),
+        (World(imu_latency_ms=5000.0), "latency"),
+        (World(imu_noise_deg=float("nan")), "imu_noise_deg"),
+        (World(seed=-1), "seed"),
+    ):
+        with pytest.raises(ValueError, match=words):
+            simulate(*w, seconds=1.0, world=bad)
+    with pytest.raises(ValueError, match="push phase"):
+        simulate(*w, seconds=1.0, push_phase="sometimes")
+
+
+def test_cpg_sim_takes_the_world_from_its_options(walk):
+    r = subprocess.run(
+        [sys.executable, "-m", "cpg.sim", "--trajectory", str(walk), "--seconds", "1", "--json", "--slope-deg", "2",
+         "--slope-axis", "roll", "--friction", "0.5", "--imu-noise-deg", "0.5", "--imu-bias-deg", "1",
+         "--imu-bias-axis", "pitch", "--imu-yaw-drift-deg-s", "0.2", "--imu-latency-ms", "20", "--seed", "7",
+         "--push-phase", "random"],
+        capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["world"] == dict(slope_deg=2.0, slope_axis="roll", friction=0.5, imu_noise_deg=0.5, imu_bias_deg=1.0,
+                                imu_bias_axis="pitch", imu_yaw_drift_deg_s=0.2, imu_latency_ms=20.0, seed=7), out
+    assert out["push_phase"] == "random"
+    for args, words in (
+        (["--slope-deg", "40"], "--slope-deg"),
+        (["--slope-axis", "yaw"], "--slope-axis"),
+        (["--imu-latency-ms", "5000"], "--imu-latency-ms"),
+        (["--imu-noise-deg", "-1"], "--imu-noise-deg"),
+        (["--seed", "-1"], "--seed"),
+        (["--friction", "nan"], "--friction"),
+    ):
+        r = subprocess.run([sys.executable, "-m", "cpg.sim", "--trajectory", str(walk), "--seconds", "1", *args],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and words in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)

@@ -34,6 +34,7 @@
 
 pub mod assets;
 pub mod control;
+pub mod imu;
 mod kinematics;
 pub mod physics;
 mod smooth;

@@ -28,7 +28,15 @@ own arrays; Python only calls it and MuJoCo):
 
 A push changes the trunk's velocity by ``--push-mps`` over 0.1 s: a force
 ``M * v / 0.1`` on the trunk (M the whole robot's mass) through
-``xfrc_applied``. The robot has fallen when the trunk drops below 60 % of its
+``xfrc_applied``; with ``--push-phase random`` each push comes at a time
+drawn uniformly from the first half of its interval (``--seed``), so that
+it meets the gait at any phase once the interval is two strides or more.
+
+The world (``World``): the floor tilted by ``--slope-deg`` about the
+``--slope-axis`` (pitch: the walking direction goes uphill for a positive
+angle; roll: the left side up), its friction ``--friction``; and the IMU as
+a real one reads, relative to gravity (``cpg_robot::imu``): noise, a tilt
+bias, a drifting heading and a latency. The JSON's ``world`` says which. The robot has fallen when the trunk drops below 60 % of its
 standing height or tilts beyond 45 degrees.
 """
 
@@ -49,6 +57,66 @@ MAX_SECONDS = 86_400.0
 #: The largest push, m/s (ten times what the robot walks at).
 MAX_PUSH_MPS = 5.0
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
+#: The steepest floor, degrees.
+MAX_SLOPE_DEG = 30.0
+#: The IMU's bounds (``cpg_robot::imu``): latency, ms, and any bias, noise or drift, degrees.
+MAX_IMU_LATENCY_MS = 1000.0
+MAX_IMU_FAULT_DEG = 90.0
+
+
+@dataclasses.dataclass
+class World:
+    """What the robot walks in beyond its own body: the floor and the IMU's faults (0: none).
+
+    ``slope_deg`` tilts the floor about ``slope_axis`` (``pitch``: uphill
+    ahead for a positive angle; ``roll``: the left side up); ``friction`` is
+    the floor's sliding friction (``None``: the scene's); the IMU reports
+    its roll or pitch (``imu_bias_axis``) off by ``imu_bias_deg``, its
+    heading drifting by ``imu_yaw_drift_deg_s``, each reading with Gaussian
+    noise of ``imu_noise_deg`` (degrees; its rates the same number in °/s)
+    and ``imu_latency_ms`` late; ``seed`` draws the noise and random push times."""
+
+    slope_deg: float = 0.0
+    slope_axis: str = "pitch"
+    friction: Optional[float] = None
+    imu_noise_deg: float = 0.0
+    imu_bias_deg: float = 0.0
+    imu_bias_axis: str = "roll"
+    imu_yaw_drift_deg_s: float = 0.0
+    imu_latency_ms: float = 0.0
+    seed: int = 0
+
+    def check(self) -> None:
+        """Raises ValueError naming the first setting outside its range."""
+        from ._cli import check_finite
+
+        check_finite(**{k: v for k, v in dataclasses.asdict(self).items() if isinstance(v, float)})
+        if not abs(self.slope_deg) <= MAX_SLOPE_DEG:
+            raise ValueError(f"slope {self.slope_deg}°: expected within ±{MAX_SLOPE_DEG:g}°")
+        if self.slope_axis not in ("pitch", "roll"):
+            raise ValueError(f"slope axis {self.slope_axis!r}: expected pitch or roll")
+        if self.imu_bias_axis not in ("pitch", "roll"):
+            raise ValueError(f"IMU bias axis {self.imu_bias_axis!r}: expected pitch or roll")
+        if self.friction is not None and not (0.01 <= self.friction <= 10):
+            raise ValueError(f"friction {self.friction}: expected 0.01 to 10")
+        if not 0 <= self.imu_noise_deg <= MAX_IMU_FAULT_DEG:
+            raise ValueError(f"IMU noise {self.imu_noise_deg}°: expected 0 to {MAX_IMU_FAULT_DEG:g}°")
+        for name in ("imu_bias_deg", "imu_yaw_drift_deg_s"):
+            if not abs(getattr(self, name)) <= MAX_IMU_FAULT_DEG:
+                raise ValueError(f"{name} = {getattr(self, name)}: expected within ±{MAX_IMU_FAULT_DEG:g}")
+        if not 0 <= self.imu_latency_ms <= MAX_IMU_LATENCY_MS:
+            raise ValueError(f"IMU latency {self.imu_latency_ms} ms: expected 0 to {MAX_IMU_LATENCY_MS:g} ms")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**63:
+            raise ValueError(f"seed {self.seed!r}: expected a whole number from 0 to 2^63 - 1")
+
+    def imu_json(self) -> str:
+        """The IMU's faults as ``cpg_robot::imu::ImuFaults`` reads them."""
+        bias = {"bias_roll_deg": 0.0, "bias_pitch_deg": 0.0}
+        bias[f"bias_{self.imu_bias_axis}_deg"] = float(self.imu_bias_deg)
+        return json.dumps(dict(
+            noise_deg=float(self.imu_noise_deg), yaw_drift_deg_s=float(self.imu_yaw_drift_deg_s),
+            latency_ms=float(self.imu_latency_ms), seed=int(self.seed), **bias,
+        ))
 
 
 @dataclasses.dataclass
@@ -152,6 +220,8 @@ def simulate(
     stop_at_s: Optional[float] = None,
     stop_ramp_s: float = 2.0,
     robot: str = "hoap2",
+    push_phase: str = "fixed",
+    world: World = World(),
 ):
     """Plays a walk in a robot's MuJoCo scene (``robot``: a built-in name,
     ``hoap2``, or a robot's folder with its ``robot.toml``, which names the
@@ -170,7 +240,9 @@ def simulate(
     with a ``u_walk`` input is told to stop there: ``u_walk`` falls to 0 by a
     cosine ramp of ``stop_ramp_s`` (its training blends last 2 s), and the
     run reports how far the trunk moved from 3 s after the ramp to the end
-    (``moved_after_stop_m``)."""
+    (``moved_after_stop_m``). ``world`` tilts the floor, sets its friction and
+    gives the IMU its faults (:class:`World`); ``push_phase`` ``random`` draws
+    each push's time within the first half of its interval (``world.seed``)."""
     import mujoco
 
     # MuJoCo's warnings (an unstable simulation) are collected for the error
@@ -184,6 +256,7 @@ def simulate(
             push_mps=push_mps, push_direction=push_direction, tempo=tempo, tempo_at_s=tempo_at_s,
             record_every=record_every, cpg_model=cpg_model, handover_s=handover_s, cpg_controls=cpg_controls,
             tempo_ramp_s=tempo_ramp_s, stop_at_s=stop_at_s, stop_ramp_s=stop_ramp_s, robot=robot,
+            push_phase=push_phase, world=world,
         )
     finally:
         mujoco.set_mju_user_warning(previous)
@@ -211,6 +284,8 @@ def _simulate(
     stop_at_s: Optional[float] = None,
     stop_ramp_s: float = 2.0,
     robot: str = "hoap2",
+    push_phase: str = "fixed",
+    world: World = World(),
 ):
     """The body of :func:`simulate`; MuJoCo's warnings go to ``warnings_seen``."""
     import mujoco
@@ -236,13 +311,15 @@ def _simulate(
         raise ValueError(f"push direction {push_direction!r}: expected one of {[*DIRECTIONS, 'all']}")
     if not (0.25 <= tempo <= 4.0):
         raise ValueError(f"tempo {tempo}: expected 0.25–4")
+    if push_phase not in ("fixed", "random"):
+        raise ValueError(f"push phase {push_phase!r}: expected fixed or random")
+    if not isinstance(world, World):
+        raise ValueError(f"world: expected a cpg.sim.World, found {type(world).__name__}")
+    world.check()
     import cpg
 
     scene = cpg._cpg._robot_scene(robot)
-    if scene["mjcf_path"] is not None:
-        model = mujoco.MjModel.from_xml_path(str(scene["mjcf_path"]))
-    else:
-        model = mujoco.MjModel.from_xml_string(scene["mjcf"])
+    model = _scene_model(scene, world)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     dt = model.opt.timestep
@@ -294,6 +371,7 @@ def _simulate(
         quat_adr=int(model.sensor(scene["imu_quat"]).adr[0]),
         gyro_adr=int(model.sensor(scene["imu_gyro"]).adr[0]),
         touch_adr=[int(a) for a in touch_adr],
+        imu_json=world.imu_json(),
     )
     if cpg_model is not None:
         ctl_names = list(cpg_model.controls)
@@ -327,7 +405,11 @@ def _simulate(
     pushes_total = pushes_survived = 0
     push_left = 0.0
     push_force = np.zeros(3)
-    next_push = push_every_s if push_every_s > 0 else math.inf
+    draws = np.random.default_rng(world.seed)
+    # Each push's time: the start of its interval, or (random phase) within the first half of it.
+    jitter = (lambda: float(draws.uniform(0.0, 0.5 * push_every_s))) if push_phase == "random" else (lambda: 0.0)
+    slot = push_every_s
+    next_push = slot + jitter() if push_every_s > 0 else math.inf
     dirs = list(DIRECTIONS) if push_direction == "all" else [push_direction]
     pending = None  # (time it began, steps to survive)
     fell_at = None
@@ -361,7 +443,8 @@ def _simulate(
             pushing = False  # a new force to apply, even right after the last push
             pushes_total += 1
             pending = t
-            next_push += push_every_s
+            slot += push_every_s
+            next_push = slot + jitter()
         if pushing != (push_left > 0):
             pushing = push_left > 0
             data.xfrc_applied[trunk, :3] = push_force if pushing else 0.0
@@ -409,6 +492,8 @@ def _simulate(
         "pushes_survived": pushes_survived,
         "pushes_total": pushes_total,
         "gait_clock_s": loop.clock_s,
+        "push_phase": push_phase,
+        "world": dataclasses.asdict(world),
     }
     if cpg_model is not None:
         out["handover_s"] = float(handover_s)
@@ -422,6 +507,34 @@ def _simulate(
         out["pose_joints"] = pose_joints
         out["poses"] = poses
     return out
+
+
+def _scene_model(scene, world: World):
+    """The robot's MuJoCo model, its floor tilted and given its friction as
+    ``world`` asks (through ``mujoco.MjSpec``; an unchanged floor loads the
+    scene as it is)."""
+    import mujoco
+
+    if world.slope_deg == 0 and world.friction is None:
+        if scene["mjcf_path"] is not None:
+            return mujoco.MjModel.from_xml_path(str(scene["mjcf_path"]))
+        return mujoco.MjModel.from_xml_string(scene["mjcf"])
+    if scene["mjcf_path"] is not None:
+        spec = mujoco.MjSpec.from_file(str(scene["mjcf_path"]))
+    else:
+        spec = mujoco.MjSpec.from_string(scene["mjcf"])
+    floor = spec.geom("floor")
+    if floor is None:
+        raise ValueError(f"the {scene['title']}'s scene has no geom named 'floor' to tilt or to give a friction")
+    half = math.radians(world.slope_deg) / 2
+    # Pitch: about -y, the floor ahead (+x) rising for a positive angle; roll: about x, the left (+y) side up.
+    axis = (0.0, -1.0, 0.0) if world.slope_axis == "pitch" else (1.0, 0.0, 0.0)
+    floor.quat = [math.cos(half), *(math.sin(half) * a for a in axis)]
+    if world.friction is not None:
+        floor.friction[0] = float(world.friction)
+        # MuJoCo takes the larger friction of two touching geoms unless one has the higher priority.
+        floor.priority = 1 + max(g.priority for g in spec.geoms)
+    return spec.compile()
 
 
 def fit_walk(times_s, joints, angles_rad, support, *, seed: int = 1, neurons: int = 600, stride_index: int = 20):
@@ -482,7 +595,7 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
 
 
 def main(argv=None) -> int:
-    from ._cli import check_output, number, read_text, run, write_output, MAX_JSON_BYTES
+    from ._cli import check_output, number, read_text, run, whole, write_output, MAX_JSON_BYTES
 
     p = argparse.ArgumentParser(prog="cpg-sim", description=__doc__.split("\n\n")[0])
     p.add_argument("--trajectory", required=True, help="a walk as `cpg retarget` writes it (CSV); with --model, the start")
@@ -492,6 +605,16 @@ def main(argv=None) -> int:
     p.add_argument("--push-every-s", type=number(0.0), default=0.0, help="push the trunk every T s (0: never)")
     p.add_argument("--push-mps", type=number(0.0, MAX_PUSH_MPS), default=0.2, help="each push's change of the trunk's velocity, m/s")
     p.add_argument("--push-direction", default="all", choices=[*DIRECTIONS, "all"], help="all: in turn")
+    p.add_argument("--push-phase", default="fixed", choices=["fixed", "random"], help="fixed: every --push-every-s; random: at a time drawn within the first half of each interval (--seed)")
+    p.add_argument("--slope-deg", type=number(-MAX_SLOPE_DEG, MAX_SLOPE_DEG), default=0.0, help="tilt the floor by this many degrees (pitch: uphill ahead when positive; roll: left side up)")
+    p.add_argument("--slope-axis", default="pitch", choices=["pitch", "roll"], help="the axis the floor tilts about")
+    p.add_argument("--friction", type=number(0.01, 10.0), help="the floor's sliding friction (default: the scene's)")
+    p.add_argument("--imu-noise-deg", type=number(0.0, MAX_IMU_FAULT_DEG), default=0.0, help="Gaussian noise on each IMU reading's angles, degrees (its rates: the same in °/s)")
+    p.add_argument("--imu-bias-deg", type=number(-MAX_IMU_FAULT_DEG, MAX_IMU_FAULT_DEG), default=0.0, help="a constant error of the IMU's roll or pitch (--imu-bias-axis), degrees")
+    p.add_argument("--imu-bias-axis", default="roll", choices=["roll", "pitch"], help="which angle --imu-bias-deg offsets")
+    p.add_argument("--imu-yaw-drift-deg-s", type=number(-MAX_IMU_FAULT_DEG, MAX_IMU_FAULT_DEG), default=0.0, help="how fast the IMU's heading drifts, degrees per second")
+    p.add_argument("--imu-latency-ms", type=number(0.0, MAX_IMU_LATENCY_MS), default=0.0, help="how late each IMU reading reaches the controller, ms")
+    p.add_argument("--seed", type=whole(0, 2**63 - 1), default=0, help="the draw of the disturbances: IMU noise, random push times (0 to 2^63 - 1)")
     p.add_argument("--tempo", type=number(0.25, 4.0), default=1.0, help="the gait's speed factor from --tempo-at-s on (0.25–4)")
     p.add_argument("--tempo-at-s", type=number(0.0), default=0.0, help="when the tempo changes, s")
     p.add_argument("--stop-at-s", type=number(0.0), help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
@@ -508,6 +631,12 @@ def main(argv=None) -> int:
         if a.gains:
             text = read_text(a.gains[1:], MAX_JSON_BYTES) if a.gains.startswith("@") else a.gains
             gains = Gains.from_json(text)
+        world = World(
+            slope_deg=a.slope_deg, slope_axis=a.slope_axis, friction=a.friction, imu_noise_deg=a.imu_noise_deg,
+            imu_bias_deg=a.imu_bias_deg, imu_bias_axis=a.imu_bias_axis, imu_yaw_drift_deg_s=a.imu_yaw_drift_deg_s,
+            imu_latency_ms=a.imu_latency_ms, seed=a.seed,
+        )
+        world.check()
         t, joints, q, support = read_trajectory(a.trajectory)
         model = None
         if a.model:
@@ -531,6 +660,8 @@ def main(argv=None) -> int:
             handover_s=a.handover_s,
             stop_at_s=a.stop_at_s,
             robot=a.robot,
+            push_phase=a.push_phase,
+            world=world,
         )
         if a.output:
             write_output(a.output, json.dumps(r))
