@@ -53,7 +53,7 @@ impl WalkLoop {
         sensordata, ctrl, force, velocity, quat_adr, gyro_adr, touch_adr,
         generator=None, drive=None, rate_hz=0.0, handover_s=0.0, first_rad=None, base=None,
         tempo_input=None, walk_input=None, tempo_ramp_s=3.0, stop_at_s=None, stop_ramp_s=2.0,
-        robot="hoap2", imu_json="{}"
+        start_at_s=None, start_ramp_s=2.0, robot="hoap2", imu_json="{}"
     ))]
     #[allow(clippy::too_many_arguments)] // keyword-only: one run's settings, each named at the call
     fn new(
@@ -87,6 +87,8 @@ impl WalkLoop {
         tempo_ramp_s: f64,
         stop_at_s: Option<f64>,
         stop_ramp_s: f64,
+        start_at_s: Option<f64>,
+        start_ramp_s: f64,
         robot: &str,
         imu_json: &str,
     ) -> PyResult<Self> {
@@ -116,6 +118,8 @@ impl WalkLoop {
                     tempo_ramp_s,
                     stop_at_s,
                     stop_ramp_s,
+                    start_at_s,
+                    start_ramp_s,
                 };
                 if schedule.base.len() != g.m.controls.len() {
                     return Err(err(format!("base: one value per control input ({})", g.m.controls.len())));
@@ -194,9 +198,12 @@ impl WalkLoop {
 }
 
 /// The control inputs at `t_s` of a run's schedule (what `_WalkLoop` gives
-/// the generator then): `base` with the tempo ramp and the stop applied.
+/// the generator then): `base` with the tempo ramp, the start and the stop applied.
 #[pyfunction]
-#[pyo3(signature = (t_s, *, base, tempo_input, walk_input, tempo, tempo_at_s, tempo_ramp_s, stop_at_s, stop_ramp_s))]
+#[pyo3(signature = (
+    t_s, *, base, tempo_input, walk_input, tempo, tempo_at_s, tempo_ramp_s, stop_at_s, stop_ramp_s,
+    start_at_s=None, start_ramp_s=2.0
+))]
 #[allow(clippy::too_many_arguments)] // keyword-only, as _WalkLoop takes them
 pub(crate) fn _controls_at(
     t_s: f64,
@@ -208,9 +215,11 @@ pub(crate) fn _controls_at(
     tempo_ramp_s: f64,
     stop_at_s: Option<f64>,
     stop_ramp_s: f64,
+    start_at_s: Option<f64>,
+    start_ramp_s: f64,
 ) -> PyResult<Vec<f64>> {
     let mut u = base.clone();
-    let s = Schedule { base, tempo_input, walk_input, tempo_ramp_s, stop_at_s, stop_ramp_s };
+    let s = Schedule { base, tempo_input, walk_input, tempo_ramp_s, stop_at_s, stop_ramp_s, start_at_s, start_ramp_s };
     s.check().map_err(err)?;
     s.at(t_s, tempo, tempo_at_s, &mut u);
     Ok(u)

@@ -184,7 +184,8 @@ pub trait Drive {
 }
 
 /// The control inputs over a run: a base setting, a cosine ramp of the tempo
-/// input to `base × tempo` from `tempo_at_s`, and of the walk input to 0 from
+/// input to `base × tempo` from `tempo_at_s`, of the walk input from 0 up to
+/// its base from `start_at_s` (0 before it: standing), and down to 0 from
 /// `stop_at_s`.
 #[derive(Debug, Clone)]
 pub struct Schedule {
@@ -200,6 +201,10 @@ pub struct Schedule {
     pub stop_at_s: Option<f64>,
     /// The ramp of the stop, s.
     pub stop_ramp_s: f64,
+    /// When the walk input starts rising from 0 (standing until then), if the run starts standing.
+    pub start_at_s: Option<f64>,
+    /// The ramp of the start, s.
+    pub start_ramp_s: f64,
 }
 
 /// The generator after the hand-over and its interpolation state.
@@ -277,10 +282,14 @@ impl Schedule {
             let w = 0.5 - 0.5 * (PI * progress(tempo_at_s, self.tempo_ramp_s)).cos();
             u[k] = self.base[k] * (1.0 + (tempo - 1.0) * w);
         }
+        if let (Some(k), Some(at)) = (self.walk_input, self.start_at_s) {
+            u[k] =
+                if t_s < at { 0.0 } else { self.base[k] * (0.5 - 0.5 * (PI * progress(at, self.start_ramp_s)).cos()) };
+        }
         if let (Some(k), Some(at)) = (self.walk_input, self.stop_at_s)
             && t_s >= at
         {
-            u[k] = self.base[k] * (0.5 + 0.5 * (PI * progress(at, self.stop_ramp_s)).cos());
+            u[k] *= 0.5 + 0.5 * (PI * progress(at, self.stop_ramp_s)).cos();
         }
     }
 }
@@ -633,6 +642,8 @@ mod tests {
             tempo_ramp_s: 0.0,
             stop_at_s: None,
             stop_ramp_s: 0.0,
+            start_at_s: None,
+            start_ramp_s: 0.0,
         };
         let d = Driven::new(Sine { out: vec![0.0], steps: 0 }, vec![0], 100.0, 0.2, &[0.0], schedule).unwrap();
         let mut c = WalkController::new(

@@ -222,6 +222,9 @@ def simulate(
     robot: str = "hoap2",
     push_phase: str = "fixed",
     world: World = World(),
+    start: str = "plan",
+    start_at_s: float = 2.0,
+    start_ramp_s: float = 2.0,
 ):
     """Plays a walk in a robot's MuJoCo scene (``robot``: a built-in name,
     ``hoap2``, or a robot's folder with its ``robot.toml``, which names the
@@ -242,7 +245,15 @@ def simulate(
     run reports how far the trunk moved from 3 s after the ramp to the end
     (``moved_after_stop_m``). ``world`` tilts the floor, sets its friction and
     gives the IMU its faults (:class:`World`); ``push_phase`` ``random`` draws
-    each push's time within the first half of its interval (``world.seed``)."""
+    each push's time within the first half of its interval (``world.seed``).
+
+    ``start="standing"`` needs a model with a ``u_walk`` input: the model
+    drives from the first step, no plan and no hand-over. Its generator is
+    first run 10 s with ``u_walk`` at 0 (standing), the robot starts in the
+    pose it then holds, and ``u_walk`` rises to its setting by a cosine ramp
+    of ``start_ramp_s`` from ``start_at_s``: the walk starts from standing.
+    The trajectory then only gives the joints the model does not drive
+    (:func:`standing_plan` gives the robot's home pose)."""
     import mujoco
 
     # MuJoCo's warnings (an unstable simulation) are collected for the error
@@ -256,7 +267,7 @@ def simulate(
             push_mps=push_mps, push_direction=push_direction, tempo=tempo, tempo_at_s=tempo_at_s,
             record_every=record_every, cpg_model=cpg_model, handover_s=handover_s, cpg_controls=cpg_controls,
             tempo_ramp_s=tempo_ramp_s, stop_at_s=stop_at_s, stop_ramp_s=stop_ramp_s, robot=robot,
-            push_phase=push_phase, world=world,
+            push_phase=push_phase, world=world, start=start, start_at_s=start_at_s, start_ramp_s=start_ramp_s,
         )
     finally:
         mujoco.set_mju_user_warning(previous)
@@ -286,6 +297,9 @@ def _simulate(
     robot: str = "hoap2",
     push_phase: str = "fixed",
     world: World = World(),
+    start: str = "plan",
+    start_at_s: float = 2.0,
+    start_ramp_s: float = 2.0,
 ):
     """The body of :func:`simulate`; MuJoCo's warnings go to ``warnings_seen``."""
     import mujoco
@@ -302,7 +316,16 @@ def _simulate(
         tempo_ramp_s=tempo_ramp_s,
         stop_at_s=stop_at_s,
         stop_ramp_s=stop_ramp_s,
+        start_at_s=start_at_s,
+        start_ramp_s=start_ramp_s,
     )
+    if start not in ("plan", "standing"):
+        raise ValueError(f"start {start!r}: expected plan or standing")
+    standing = start == "standing"
+    if standing and (cpg_model is None or "u_walk" not in cpg_model.controls):
+        raise ValueError("start='standing' needs a model with a u_walk input (it starts the walk)")
+    if not (0 <= start_at_s <= MAX_SECONDS and 0 <= start_ramp_s <= 60):
+        raise ValueError(f"start at {start_at_s} s over {start_ramp_s} s: expected 0 s or later, a ramp of 0 to 60 s")
     if seconds is not None and not (0 < seconds <= MAX_SECONDS):
         raise ValueError(f"seconds = {seconds}: expected more than 0 and at most {MAX_SECONDS:g}")
     if push_every_s < 0 or not (0 <= push_mps <= MAX_PUSH_MPS):
@@ -340,8 +363,8 @@ def _simulate(
     trunk = model.body(scene["trunk"]).id
     mass = float(np.sum(model.body_mass))
     touch_adr = [model.sensor(name).adr[0] for name in scene["touch"]]
-    start = data.xpos[trunk].copy()
-    stand_z = start[2]
+    start_xyz = data.xpos[trunk].copy()
+    stand_z = start_xyz[2]
     # Touch-down times of the plan: where support turns from single to double.
     landings = []
     if support is not None and len(support) == len(clock_t):
@@ -389,9 +412,20 @@ def _simulate(
             tempo_ramp_s=float(tempo_ramp_s),
             stop_at_s=None if stop_at_s is None else float(stop_at_s),
             stop_ramp_s=float(stop_ramp_s),
+            start_at_s=float(start_at_s) if standing else None,
+            start_ramp_s=float(start_ramp_s),
         )
         u0 = cpg._cpg._controls_at(0.0, tempo=float(tempo), tempo_at_s=float(tempo_at_s), **schedule)
-        gen, drive, rate, first_rad, handover_s = _generator_for(cpg_model, joints, clock_t, angles_rad, support, handover_s, u0 or None)
+        if standing:
+            gen, drive, rate, first_rad = _standing_generator(cpg_model, joints, u0)
+            handover_s = 0.0
+            # The robot starts in the pose the generator stands in.
+            data.qpos[qadr[drive]] = first_rad
+            data.ctrl[act[drive]] = first_rad
+            mujoco.mj_forward(model, data)
+            start_xyz = data.xpos[trunk].copy()
+        else:
+            gen, drive, rate, first_rad, handover_s = _generator_for(cpg_model, joints, clock_t, angles_rad, support, handover_s, u0 or None)
         setup.update(
             generator=gen,
             drive=[int(k) for k in drive],
@@ -472,7 +506,7 @@ def _simulate(
     steps_run = step + 1
     if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
         raise Diverged(f"the simulation's state stopped being finite by {steps_run * dt:.3f} s")
-    end = data.xpos[trunk] - start
+    end = data.xpos[trunk] - start_xyz
     m = data.xmat[trunk].reshape(3, 3)
     heading = math.degrees(math.atan2(m[1, 0], m[0, 0]))
     distance = float(math.hypot(end[0], end[1]))
@@ -495,6 +529,9 @@ def _simulate(
         "push_phase": push_phase,
         "world": dataclasses.asdict(world),
     }
+    out["start"] = start
+    if standing:
+        out["start_at_s"] = float(start_at_s)
     if cpg_model is not None:
         out["handover_s"] = float(handover_s)
     if stop_at_s is not None:
@@ -594,14 +631,49 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
     return gen, drive, rate, first, handover_s
 
 
+def _standing_generator(model, joints, controls):
+    """The model's generator after 10 s at ``controls`` (its walk input at 0:
+    standing), the joints it drives, its rate and the pose it holds (rad)."""
+    names = [c[:-3] if c.endswith(".rx") else c for c in model.channels]
+    missing = [n for n in names if n not in joints]
+    if missing:
+        raise ValueError(f"the model's channels {missing} are not the robot's joints (expected JOINT.rx channels)")
+    drive = np.array([joints.index(n) for n in names])
+    rate = float(model.rate_hz)
+    gen = model.generator()
+    for _ in range(int(round(10.0 * rate))):
+        gen.step(controls)
+    first = np.radians(np.asarray(gen.step(controls), dtype=float))
+    return gen, drive, rate, first
+
+
+def standing_plan(robot: str = "hoap2", seconds: float = 1.0):
+    """A 'walk' that stands in the robot's home pose (its scene's ``home``
+    keyframe): (times_s, joints, angles_rad, support) as :func:`read_trajectory`
+    gives them, for ``simulate(..., start="standing")`` without a trajectory."""
+    import mujoco
+
+    import cpg
+
+    scene = cpg._cpg._robot_scene(robot)
+    model = _scene_model(scene, World())
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    joints = [model.actuator(k).name for k in range(model.nu)]
+    pose = np.array([data.qpos[model.jnt_qposadr[model.joint(j).id]] for j in joints], dtype=float)
+    return np.array([0.0, float(seconds)]), joints, np.vstack([pose, pose]), None
+
+
 def main(argv=None) -> int:
     from ._cli import check_output, number, read_text, run, whole, write_output, MAX_JSON_BYTES
 
     p = argparse.ArgumentParser(prog="cpg-sim", description=__doc__.split("\n\n")[0])
-    p.add_argument("--trajectory", required=True, help="a walk as `cpg retarget` writes it (CSV); with --model, the start")
+    p.add_argument("--trajectory", help="a walk as `cpg retarget` writes it (CSV); with --model, the start (required unless --start standing)")
     p.add_argument("--model", help="a trained model (channels JOINT.rx, degrees) that drives after the hand-over")
     p.add_argument("--handover-s", type=number(0.0), help="when the model takes over (default: the 10th left touch-down)")
-    p.add_argument("--seconds", type=number(0.0, MAX_SECONDS, lo_open=True), help="how long to simulate (default: the walk's length)")
+    p.add_argument("--start", default="plan", choices=["plan", "standing"], help="plan: the trajectory's walk, then the model from the hand-over; standing: the model from the first step, standing until --start-at-s, then walking (its u_walk input ramped up over 2 s)")
+    p.add_argument("--start-at-s", type=number(0.0, MAX_SECONDS), default=2.0, help="with --start standing: when the walk starts, s")
+    p.add_argument("--seconds", type=number(0.0, MAX_SECONDS, lo_open=True), help="how long to simulate (default: the walk's length; 60 s from standing without a trajectory)")
     p.add_argument("--push-every-s", type=number(0.0), default=0.0, help="push the trunk every T s (0: never)")
     p.add_argument("--push-mps", type=number(0.0, MAX_PUSH_MPS), default=0.2, help="each push's change of the trunk's velocity, m/s")
     p.add_argument("--push-direction", default="all", choices=[*DIRECTIONS, "all"], help="all: in turn")
@@ -637,7 +709,16 @@ def main(argv=None) -> int:
             imu_latency_ms=a.imu_latency_ms, seed=a.seed,
         )
         world.check()
-        t, joints, q, support = read_trajectory(a.trajectory)
+        if a.start == "standing" and not a.model:
+            raise ValueError("--start standing needs --model (a model with a u_walk input)")
+        if a.trajectory is None and a.start != "standing":
+            raise ValueError("--trajectory is required unless --start standing")
+        if a.trajectory is None:
+            t, joints, q, support = standing_plan(a.robot)
+            if a.seconds is None:
+                a.seconds = 60.0  # a standing start has no trajectory's length to default to
+        else:
+            t, joints, q, support = read_trajectory(a.trajectory)
         model = None
         if a.model:
             import cpg
@@ -662,6 +743,8 @@ def main(argv=None) -> int:
             robot=a.robot,
             push_phase=a.push_phase,
             world=world,
+            start=a.start,
+            start_at_s=a.start_at_s,
         )
         if a.output:
             write_output(a.output, json.dumps(r))
