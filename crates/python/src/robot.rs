@@ -27,13 +27,16 @@ pub(crate) fn hoap2_mjcf() -> &'static str {
 
 /// The most bytes of a robot's MuJoCo scene read.
 const MAX_MJCF_BYTES: u64 = 64 << 20;
+/// The largest gains file a robot's folder may hold, bytes.
+const MAX_GAINS_BYTES: u64 = 1 << 20;
 
 /// A robot's scene as the simulator needs it: `name`, `title`, `mjcf` (the
 /// MuJoCo scene's text), `mjcf_path` (its file, for a robot's folder, so
 /// that meshes beside it load; `None` for a built-in robot), `trunk` (the
 /// URDF's root link, the body the simulator follows), the sensors' names
-/// (`imu_quat`, `imu_gyro`, `touch`: left then right) and `leg_m` (hip to
-/// floor with the leg straight, to 0.1 mm). `robot`: a built-in name
+/// (`imu_quat`, `imu_gyro`, `touch`: left then right), `leg_m` (hip to
+/// floor with the leg straight, to 0.1 mm) and `gains_json` (the walk's
+/// shipped feedback gains, or `None`). `robot`: a built-in name
 /// (`hoap2`) or a robot's folder (its `robot.toml`).
 #[pyfunction]
 pub(crate) fn _robot_scene<'py>(py: Python<'py>, robot: PathBuf) -> PyResult<Bound<'py, PyDict>> {
@@ -61,6 +64,20 @@ pub(crate) fn _robot_scene<'py>(py: Python<'py>, robot: PathBuf) -> PyResult<Bou
     d.set_item("imu_gyro", &spec.sensors.imu_gyro)?;
     d.set_item("touch", spec.sensors.touch.to_vec())?;
     d.set_item("leg_m", (leg * 1e4).round() / 1e4)?;
+    // The walk's shipped feedback gains (JSON text), if the spec names them.
+    let gains = match &spec.gains {
+        None => None,
+        Some(_) if builtin => Some(cpg_robot::assets::HOAP2_GAINS.to_owned()),
+        Some(g) => {
+            let dir =
+                if robot.is_dir() { robot.clone() } else { robot.parent().map(PathBuf::from).unwrap_or_default() };
+            let path = cpg_robot::RobotSpec::path_in(&dir, g);
+            let bytes =
+                cpg_io::read_bounded(&path, MAX_GAINS_BYTES).map_err(|e| err(format!("{}: {e}", path.display())))?;
+            Some(String::from_utf8(bytes).map_err(|_| err(format!("{}: not UTF-8 text", path.display())))?)
+        }
+    };
+    d.set_item("gains_json", gains)?;
     Ok(d)
 }
 

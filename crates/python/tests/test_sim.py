@@ -70,6 +70,7 @@ def test_cpg_sim_says_what_is_wrong(walk, tmp_path):
         (["--start", "standing"], "--start standing needs --model"),
         (["--seconds", "1"], "--trajectory is required"),
     ]
+    cases.append((["--trajectory", str(walk), "--gains", "{}", "--no-gains"], "give one"))
     for args, words in cases:
         r = subprocess.run([sys.executable, "-m", "cpg.sim", *args], capture_output=True, text=True)
         assert r.returncode == 2 and words in r.stderr, (args, r.stderr)
@@ -218,3 +219,27 @@ def test_cpg_sim_takes_the_world_from_its_options(walk):
         r = subprocess.run([sys.executable, "-m", "cpg.sim", "--trajectory", str(walk), "--seconds", "1", *args],
                            capture_output=True, text=True)
         assert r.returncode == 2 and words in r.stderr and "Traceback" not in r.stderr, (args, r.stderr)
+
+
+def test_a_model_alone_walks_from_standing_with_the_robots_shipped_gains(tmp_path):
+    """`cpg-sim --model M --start standing` alone: no trajectory, no gains
+    option; the robot's robot.toml names its gains and cpg-sim uses them."""
+    import cpg
+
+    scene = cpg._cpg._robot_scene("hoap2")
+    assert Gains.from_json(scene["gains_json"]) == Gains.from_json(GAINS.read_text())
+    model = tmp_path / "walk.cpg"
+    cpg.train(str(ROOT / "experiments" / "hoap2-walk.toml"), seed=3).save(str(model))
+    runs = {}
+    for extra in ([], ["--no-gains"]):
+        r = subprocess.run(
+            [sys.executable, "-m", "cpg.sim", "--model", str(model), "--start", "standing", "--seconds", "15", "--json", *extra],
+            capture_output=True, text=True,
+        )
+        assert r.returncode == 0, r.stderr
+        runs[tuple(extra)] = json.loads(r.stdout)
+    shipped = runs[()]
+    assert shipped["gains_from"] == "the robot's" and shipped["start"] == "standing", shipped
+    assert not shipped["fell"] and shipped["forward_m"] > 0.4, shipped
+    assert runs[("--no-gains",)]["gains_from"] == "none"
+    assert runs[("--no-gains",)] != {**shipped, "gains_from": "none"}, "the gains change the run"

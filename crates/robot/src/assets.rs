@@ -14,6 +14,8 @@ use crate::{ChannelMap, Result, Robot};
 pub const HOAP2_URDF: &str = include_str!("../../../assets/hoap2/hoap2.urdf");
 /// `assets/hoap2/hoap2.xml`: the HOAP-2 in MuJoCo, built from [`HOAP2_URDF`] by [`crate::physics::mjcf`].
 pub const HOAP2_MJCF: &str = include_str!("../../../assets/hoap2/hoap2.xml");
+/// `assets/hoap2/feedback-gains.json`: the walk's balance feedback gains (`cpg.sim.Gains`, found by `cpg.sim_search`).
+pub const HOAP2_GAINS: &str = include_str!("../../../assets/hoap2/feedback-gains.json");
 /// `assets/hoap2/cmu35_to_hoap2.tsv`: CMU subject 35's channels onto the 22 leg and arm joints.
 pub const CMU35_TO_HOAP2: &str = include_str!("../../../assets/hoap2/cmu35_to_hoap2.tsv");
 /// `assets/hoap2/cmu35_legs_to_hoap2.tsv`: the 12 leg joints alone.

@@ -14,6 +14,7 @@
 //! title = "HOAP-2"          # how reports write it
 //! urdf = "hoap2.urdf"       # paths relative to the file
 //! mjcf = "hoap2.xml"
+//! gains = "feedback-gains.json"  # optional: the walk's feedback gains (`cpg.sim.Gains`), `cpg-sim`'s default
 //!
 //! [maps]                    # name → TSV: a person's channels onto joints
 //! hoap2 = "cmu35_to_hoap2.tsv"
@@ -166,6 +167,10 @@ pub struct RobotSpec {
     pub urdf: PathBuf,
     /// The MuJoCo scene, relative to the spec's folder.
     pub mjcf: PathBuf,
+    /// The walk's balance feedback gains (JSON, `cpg.sim.Gains`), relative to
+    /// the folder: what `cpg-sim` uses when it is given no `--gains`.
+    #[serde(default)]
+    pub gains: Option<PathBuf>,
     /// Maps from a person's channels onto the joints: name → TSV, relative to the folder.
     #[serde(default)]
     pub maps: BTreeMap<String, PathBuf>,

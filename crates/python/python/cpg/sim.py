@@ -691,7 +691,8 @@ def main(argv=None) -> int:
     p.add_argument("--tempo-at-s", type=number(0.0), default=0.0, help="when the tempo changes, s")
     p.add_argument("--stop-at-s", type=number(0.0), help="tell the model to stop here (its u_walk input to 0 over 2 s) and stand")
     p.add_argument("--robot", default="hoap2", help="the robot: a built-in name (hoap2) or a robot's folder with its robot.toml")
-    p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE")
+    p.add_argument("--gains", help="feedback gains as JSON (see cpg.sim.Gains), or @FILE (default: the robot's shipped gains, its robot.toml's `gains`, with --model; none without)")
+    p.add_argument("--no-gains", action="store_true", help="no feedback at all, even with --model")
     p.add_argument("--json", action="store_true", help="print the measures as JSON")
     p.add_argument("-o", "--output", help="write the measures (with the trunk path, contacts and body poses at 50 Hz; `cpg view --sim` shows them) as JSON here (- for standard output)")
     a = p.parse_args(argv)
@@ -699,10 +700,18 @@ def main(argv=None) -> int:
     def body() -> int:
         # Everything that can be checked is checked before the simulation.
         check_output(a.output)
-        gains = Gains()
+        gains, gains_from = Gains(), "none"
+        if a.gains and a.no_gains:
+            raise ValueError("--gains and --no-gains: give one")
         if a.gains:
             text = read_text(a.gains[1:], MAX_JSON_BYTES) if a.gains.startswith("@") else a.gains
-            gains = Gains.from_json(text)
+            gains, gains_from = Gains.from_json(text), "--gains"
+        elif a.model and not a.no_gains:
+            import cpg
+
+            shipped = cpg._cpg._robot_scene(a.robot)["gains_json"]
+            if shipped is not None:
+                gains, gains_from = Gains.from_json(shipped), "the robot's"
         world = World(
             slope_deg=a.slope_deg, slope_axis=a.slope_axis, friction=a.friction, imu_noise_deg=a.imu_noise_deg,
             imu_bias_deg=a.imu_bias_deg, imu_bias_axis=a.imu_bias_axis, imu_yaw_drift_deg_s=a.imu_yaw_drift_deg_s,
@@ -746,6 +755,7 @@ def main(argv=None) -> int:
             start=a.start,
             start_at_s=a.start_at_s,
         )
+        r["gains_from"] = gains_from
         if a.output:
             write_output(a.output, json.dumps(r))
         summary = {k: v for k, v in r.items() if k not in ("trunk_path", "contacts_n", "pose_joints", "poses")}
