@@ -32,7 +32,7 @@ use crate::train::{Scoring, TrainSettings, Training, ValidationPoint};
 pub const MAGIC: &[u8; 8] = b"CPGMODEL";
 /// The format version this build writes and reads. Version 5 stores the
 /// training settings as JSON text too (versions 2 to 4 stored them as fixed
-/// bincode fields, [`SettingsV4`]); version 4 stores the reservoir's
+/// bincode fields, `SettingsV4`); version 4 stores the reservoir's
 /// configuration as JSON text (self-describing: a parameter added later
 /// reads as its default from older files); versions 2 and 3 stored it as
 /// fixed bincode fields, and version 2 stored W scaled by the spectral radius.
