@@ -43,13 +43,18 @@ pub(crate) fn _robot_scene<'py>(py: Python<'py>, robot: PathBuf) -> PyResult<Bou
     let r = cpg_robot::Robot::from_spec(&robot).map_err(err)?;
     let spec = r.spec().map_err(err)?;
     let builtin = robot.as_os_str() == "hoap2";
+    // A file the spec names, relative to its folder, read as text within `max` bytes.
+    let dir = if robot.is_dir() { robot.clone() } else { robot.parent().map(PathBuf::from).unwrap_or_default() };
+    let read_text = |name: &std::path::Path, max: u64| -> PyResult<(String, PathBuf)> {
+        let path = cpg_robot::RobotSpec::path_in(&dir, name);
+        let bytes = cpg_io::read_bounded(&path, max).map_err(|e| err(format!("{}: {e}", path.display())))?;
+        let text = String::from_utf8(bytes).map_err(|_| err(format!("{}: not UTF-8 text", path.display())))?;
+        Ok((text, path))
+    };
     let (mjcf, mjcf_path) = if builtin {
         (cpg_robot::assets::HOAP2_MJCF.to_owned(), None)
     } else {
-        let dir = if robot.is_dir() { robot.clone() } else { robot.parent().map(PathBuf::from).unwrap_or_default() };
-        let path = cpg_robot::RobotSpec::path_in(&dir, &spec.mjcf);
-        let bytes = cpg_io::read_bounded(&path, MAX_MJCF_BYTES).map_err(|e| err(format!("{}: {e}", path.display())))?;
-        let text = String::from_utf8(bytes).map_err(|_| err(format!("{}: not UTF-8 text", path.display())))?;
+        let (text, path) = read_text(&spec.mjcf, MAX_MJCF_BYTES)?;
         (text, Some(path))
     };
     let leg = cpg_lab::retarget::robot_leg_length_m(&r).map_err(err)?;
@@ -68,14 +73,7 @@ pub(crate) fn _robot_scene<'py>(py: Python<'py>, robot: PathBuf) -> PyResult<Bou
     let gains = match &spec.gains {
         None => None,
         Some(_) if builtin => Some(cpg_robot::assets::HOAP2_GAINS.to_owned()),
-        Some(g) => {
-            let dir =
-                if robot.is_dir() { robot.clone() } else { robot.parent().map(PathBuf::from).unwrap_or_default() };
-            let path = cpg_robot::RobotSpec::path_in(&dir, g);
-            let bytes =
-                cpg_io::read_bounded(&path, MAX_GAINS_BYTES).map_err(|e| err(format!("{}: {e}", path.display())))?;
-            Some(String::from_utf8(bytes).map_err(|_| err(format!("{}: not UTF-8 text", path.display())))?)
-        }
+        Some(g) => Some(read_text(g, MAX_GAINS_BYTES)?.0),
     };
     d.set_item("gains_json", gains)?;
     Ok(d)

@@ -26,7 +26,7 @@ use crate::engine::Engine;
 use crate::error::{Error, Result};
 use crate::kernel::SimdDot;
 use crate::reservoir::Reservoir;
-use crate::train::{Candidate, Sequence, TrainSettings, Training, TrainingData, choose, validate_in};
+use crate::train::{Candidate, Sequence, TrainSettings, Training, TrainingData, check_washout, choose, validate_in};
 
 /// How FORCE learns (a configuration's `[training.force]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -108,11 +108,7 @@ fn learn<R: SimdDot>(
 ) -> Result<(Readout, f64)> {
     let (n, np, d, u) = (engine.shared.n, engine.shared.np, engine.shared.d, engine.shared.u);
     let t = seq.check("training sequence", d, u)?;
-    if washout + 2 > t {
-        return Err(Error::Settings(format!(
-            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
-        )));
-    }
+    check_washout(washout, t)?;
     let f = n + 1;
     let mut p = Mat::<f64>::zeros(f, f);
     for i in 0..f {

@@ -307,6 +307,16 @@ pub struct Harvest {
     pub targets: Mat<f64>,
 }
 
+/// A washout that leaves at least 2 of the `t` training samples.
+pub(crate) fn check_washout(washout: usize, t: usize) -> Result<()> {
+    if washout + 2 > t {
+        return Err(Error::Settings(format!(
+            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
+        )));
+    }
+    Ok(())
+}
+
 /// Harvests the training states of `seq` by teacher forcing from the zero state.
 pub fn harvest(reservoir: &Reservoir, seq: &Sequence, washout: usize) -> Result<Harvest> {
     match reservoir.config().precision {
@@ -324,11 +334,7 @@ fn harvest_in<R: SimdDot>(
 ) -> Result<Harvest> {
     let (n, d, u) = (engine.shared.n, engine.shared.d, engine.shared.u);
     let t = seq.check("training sequence", d, u)?;
-    if washout + 2 > t {
-        return Err(Error::Settings(format!(
-            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
-        )));
-    }
+    check_washout(washout, t)?;
     let rows = t - 1 - washout;
     let mut states = Mat::<f64>::zeros(rows, n);
     let mut x = vec![R::ZERO; engine.shared.np];
@@ -608,11 +614,7 @@ fn self_fed_in<R: SimdDot>(
     let (n, d, u) = (engine.shared.n, engine.shared.d, engine.shared.u);
     let t = seq.check("training sequence", d, u)?;
     let (washout, sf) = (settings.washout, settings.self_fed);
-    if washout + 2 > t {
-        return Err(Error::Settings(format!(
-            "washout of {washout} steps leaves fewer than 2 of the {t} training samples"
-        )));
-    }
+    check_washout(washout, t)?;
     let cycle = sf.forced_steps + sf.free_steps;
     let mut g = rng(settings.noise_seed, 2_000 + round);
     let sigma = settings.teacher_noise;

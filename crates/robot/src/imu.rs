@@ -86,6 +86,8 @@ pub struct Imu {
     delay: usize,
     head: usize,
     primed: bool,
+    /// No faults at all: the truth passes unchanged (decided once, not per reading).
+    perfect: bool,
     rng: ChaCha8Rng,
 }
 
@@ -106,6 +108,7 @@ impl Imu {
             delay,
             head: 0,
             primed: false,
+            perfect: faults.is_perfect(),
             rng: ChaCha8Rng::seed_from_u64(faults.seed),
         })
     }
@@ -118,7 +121,7 @@ impl Imu {
     /// What the controller reads at `t_s` when the truth is `s` (the soles'
     /// forces pass unchanged).
     pub fn read(&mut self, t_s: f64, s: &Sensors) -> Sensors {
-        if self.faults.is_perfect() {
+        if self.perfect {
             return *s;
         }
         let now = (s.quat, s.gyro);

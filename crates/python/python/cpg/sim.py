@@ -605,14 +605,19 @@ def fit_walk(times_s, joints, angles_rad, support, *, seed: int = 1, neurons: in
     return cpg.fit(y, rate_hz=rate, channels=[joints[k] + ".rx" for k in drive], seed=int(seed), config=config)
 
 
-def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, controls=None):
-    """The model's generator, stepped to the phase that matches the trajectory at the hand-over
-    (``controls``: its control values, held)."""
+def _driven_joints(model, joints):
+    """The index in ``joints`` of each of the model's channels (``JOINT.rx``)."""
     names = [c[:-3] if c.endswith(".rx") else c for c in model.channels]
     missing = [n for n in names if n not in joints]
     if missing:
         raise ValueError(f"the model's channels {missing} are not joints of the walk (expected JOINT.rx channels)")
-    drive = np.array([joints.index(n) for n in names])
+    return np.array([joints.index(n) for n in names])
+
+
+def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, controls=None):
+    """The model's generator, stepped to the phase that matches the trajectory at the hand-over
+    (``controls``: its control values, held)."""
+    drive = _driven_joints(model, joints)
     rate = float(model.rate_hz)
     if handover_s is None:
         strikes = [clock_t[k] for k in range(1, len(clock_t)) if support is not None and support[k] == "double" and support[k - 1] == "right"]
@@ -634,11 +639,7 @@ def _generator_for(model, joints, clock_t, angles_rad, support, handover_s, cont
 def _standing_generator(model, joints, controls):
     """The model's generator after 10 s at ``controls`` (its walk input at 0:
     standing), the joints it drives, its rate and the pose it holds (rad)."""
-    names = [c[:-3] if c.endswith(".rx") else c for c in model.channels]
-    missing = [n for n in names if n not in joints]
-    if missing:
-        raise ValueError(f"the model's channels {missing} are not the robot's joints (expected JOINT.rx channels)")
-    drive = np.array([joints.index(n) for n in names])
+    drive = _driven_joints(model, joints)
     rate = float(model.rate_hz)
     gen = model.generator()
     for _ in range(int(round(10.0 * rate))):
